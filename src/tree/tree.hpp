@@ -1,0 +1,242 @@
+#pragma once
+// A forest of 2^D-trees (quadtrees, octrees) on a brick of root cubes, stored as linear,
+// multilevel, Morton-ordered arrays (DESIGN.md, "The tree").
+//
+// Cells and their index. Every cell that exists at level L has a slot in level L's block of
+// the global index space; the blocks follow each other by level, and a block is
+//   [ active cells | halo cells | ghost cells ]
+// - active cells are the leaves and their ancestors (parents), in Morton order;
+// - halo cells are the children of a leaf that touches a parent of its own level: they give
+//   every leaf of level L a full 3^D neighbourhood of level-L cells, holding values
+//   prolonged from the coarse leaf (Basilisk's multilevel trees do the same);
+// - ghost cells lie outside a non-periodic side and hold boundary-condition values.
+// A field is one flat array over all these slots (size num_cells()).
+//
+// Topology is rebuilt top-down after every change, in O(cells): the neighbours of the
+// children of a parent P are children of P's own neighbours, so each level's neighbour
+// tables come from the previous level's with no search and no hashing. Only active cells
+// have neighbour rows (halo and ghost cells are filled from their parent or source), which
+// keeps the topology near 120 bytes per active cell in 3D.
+//
+// Invariants kept by every change: the forest is 2:1 balanced across faces, edges and
+// corners; every active cell has all 3^D - 1 neighbours at its own level (active, halo or
+// ghost); siblings are contiguous; children appear in their parent's order.
+//
+// Partitioning (a later MPI issue): leaves are ordered along the Morton curve of each level
+// and a rebuild starts from a per-cell "refined" decision, so a partition can build the same
+// structure from its own leaves plus a ghost layer without changing the rebuild.
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tree/boundary.hpp"
+#include "tree/geometry.hpp"
+#include "tree/morton.hpp"
+#include "tree/stencil.hpp"
+#include "tree/tree_options.hpp"
+
+namespace capsflow::tree {
+
+using Index = std::int32_t;
+inline constexpr Index kNone = -1;
+
+// How a field's values reach new fine cells (refinement, halo filling). Restriction is
+// always the volume average. `none` marks scratch fields: adapt() only resizes them.
+enum class Prolongation : unsigned char { linear, limited, none };
+
+template <int D>
+struct FieldSpec {
+  std::string name;
+  Prolongation prolongation = Prolongation::linear;
+  BoundaryConditions<D> bc = BoundaryConditions<D>::all(BcKind::neumann);
+};
+
+using FieldId = int;
+
+// The cells of one level and their topology. Indices stored here are global.
+template <int D>
+struct Level {
+  Index base = 0;  // global index of the first cell of the level
+  Index n_active = 0, n_halo = 0, n_ghost = 0;
+  std::vector<Key> keys;                 // active then halo cells
+  std::vector<Index> face;               // n_active rows of kFaces<D> neighbours
+  std::vector<Index> diag;               // n_active rows of kDiagonals<D> neighbours
+  std::vector<Index> first_child;        // every slot: first of 2^D contiguous children, or kNone
+  std::vector<std::uint8_t> leaf;        // active cells: 1 for a leaf
+  std::vector<Index> halo_parent;        // one per group of 2^D halo cells: the coarse leaf
+  std::vector<Index> ghost_source;       // the cell a ghost takes its value from, or kNone
+  std::vector<std::int8_t> ghost_side;   // the side (2d or 2d+1) it is filled across
+  std::vector<Coords<D>> ghost_coords;   // integer coordinates (outside the brick)
+  std::vector<Index> ghost_fill;         // ghosts with a source, faces before edges before corners
+  // Scratch of the rebuild, kept to avoid allocation.
+  std::vector<Index> old_index;          // active cells: the same cell in the previous tree
+  std::vector<std::uint8_t> mark;
+
+  Index size() const { return n_active + n_halo + n_ghost; }
+  Index active_begin() const { return base; }
+  Index active_end() const { return base + n_active; }
+  Index halo_begin() const { return base + n_active; }
+  Index halo_end() const { return base + n_active + n_halo; }
+  Index ghost_begin() const { return halo_end(); }
+  Index ghost_end() const { return base + size(); }
+  // Neighbour `slot` (see stencil.hpp) of the active cell c of this level.
+  Index neighbor(Index c, int slot) const {
+    const Index r = c - base;
+    return slot < kFaces<D> ? face[static_cast<std::size_t>(r) * kFaces<D> + slot]
+                            : diag[static_cast<std::size_t>(r) * kDiagonals<D> + slot - kFaces<D>];
+  }
+  const Index* face_row(Index c) const {
+    return face.data() + static_cast<std::size_t>(c - base) * kFaces<D>;
+  }
+  bool is_leaf(Index c) const { return leaf[c - base] != 0; }
+};
+
+struct AdaptCounts {
+  Index refined = 0;    // leaves split
+  Index coarsened = 0;  // parents merged into a leaf
+  Index leaves = 0;     // after the change
+  Index cells = 0;      // all slots after the change
+};
+
+struct WaveletTolerance {
+  FieldId field = 0;
+  double tolerance = 1e-3;
+};
+
+template <int D>
+struct AdaptOptions {
+  std::vector<WaveletTolerance> criteria;  // refine where a wavelet exceeds its tolerance
+  int min_level = 0;
+  int max_level = -1;  // -1: the tree's max level
+  // Forced refinement: the level a leaf must reach at least, given its box (0: none).
+  std::function<int(const Box<D>&)> required_level;
+  bool allow_coarsening = true;
+};
+
+template <int D>
+class Tree {
+ public:
+  explicit Tree(const TreeOptions<D>& options);
+
+  const TreeOptions<D>& options() const { return options_; }
+  int max_level() const { return options_.max_level; }
+  int depth() const { return depth_; }  // deepest level holding cells
+  Index num_cells() const { return num_cells_; }
+  Index num_leaves() const { return static_cast<Index>(leaves_.size()); }
+  const Level<D>& level(int l) const { return levels_[l]; }
+  std::span<const Index> leaves() const { return leaves_; }
+
+  // --- cells
+  int level_of(Index c) const;
+  double cell_size(int l) const { return cell_size_[l]; }
+  Coords<D> coords(Index c) const;  // integer coordinates on the uniform grid of its level
+  Point<D> center(Index c) const;
+  Box<D> box(Index c) const;
+  Point<D> center_at(int l, const Coords<D>& ijk) const;
+
+  // --- point location
+  // The leaf containing x; throws std::out_of_range naming the point if x is outside.
+  Index locate(const Point<D>& x) const;
+  // The active or halo cell of level l at integer coordinates ijk (wrapped across periodic
+  // sides), or kNone if no such cell exists or it lies outside the brick.
+  Index find(int l, Coords<D> ijk) const;
+  // The width^D cells of level l whose centres are nearest x (width even: the cells whose
+  // centres lie within width/2 cells of x along each axis), lowest corner first, x fastest.
+  // Entries are kNone where that cell does not exist.
+  void cells_around(const Point<D>& x, int l, int width, std::vector<Index>& out) const;
+
+  // --- loops (OpenMP-parallel; f(Index) must be safe to run concurrently)
+  template <class F>
+  void for_each_leaf(F&& f) const {
+    const Index n = num_leaves();
+#pragma omp parallel for schedule(static)
+    for (Index i = 0; i < n; ++i) f(leaves_[i]);
+  }
+  template <class F>
+  void for_each_cell_at_level(int l, F&& f) const {
+    const Level<D>& lv = levels_[l];
+    const Index b = lv.active_begin(), e = lv.active_end();
+#pragma omp parallel for schedule(static)
+    for (Index c = b; c < e; ++c) f(c);
+  }
+
+  // --- fields: registered fields are carried through every adapt()
+  FieldId add_field(FieldSpec<D> spec);
+  int num_fields() const { return static_cast<int>(fields_.size()); }
+  const FieldSpec<D>& field_spec(FieldId f) const { return fields_.at(f); }
+  std::span<double> values(FieldId f) { return data_.at(f); }
+  std::span<const double> values(FieldId f) const { return data_.at(f); }
+
+  // --- one mechanism for every value outside the leaves
+  // Parents of level l get the volume average of their children.
+  void restrict_level(int l, std::span<double> v) const;
+  // Halo cells of level l get values prolonged from their coarse leaf (level l-1).
+  void fill_halo(int l, std::span<double> v, Prolongation p) const;
+  // Ghost cells of level l get the boundary-condition values.
+  void fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const;
+  // All of the above, in dependency order: restriction bottom-up, then level by level halo
+  // and ghosts top-down. After it every active cell reads valid values at all neighbours.
+  void sync(std::span<double> v, const BoundaryConditions<D>& bc,
+            Prolongation p = Prolongation::linear) const;
+  void sync(FieldId f);
+
+  // --- adaptation
+  // Normalised wavelet error max_f |v_f - prolongation from the parent| / tol_f for every
+  // active cell of level >= 1 (0 at level 0). The fields must be synced.
+  void wavelet_error(std::span<const WaveletTolerance> criteria, std::vector<float>& error) const;
+  // Basilisk's adapt_wavelet plus forced refinement: refine leaves whose error exceeds 1 or
+  // that lie below their required level, coarsen parents whose children are all leaves with
+  // error <= 1/1.5 (one level per call), keep the 2:1 balance, carry every field.
+  AdaptCounts adapt(const AdaptOptions<D>& options);
+  // Refine and coarsen from per-cell flags (indexed by cell; only leaves are read): +1
+  // refine, -1 coarsening candidate (a parent merges when all its children are candidates
+  // and the balance allows), 0 keep. Balance is enforced; fields are carried.
+  AdaptCounts apply_flags(std::span<const std::int8_t> flags, int min_level = 0);
+  // Repeats adapt() with only forced refinement until nothing changes (initial meshes).
+  AdaptCounts refine_to(const std::function<int(const Box<D>&)>& required_level,
+                        int max_passes = 64);
+
+  // Bytes held by the topology (keys, neighbour tables, children, halo and ghost data,
+  // leaf list), without fields and without rebuild scratch.
+  std::size_t topology_bytes() const;
+
+ private:
+  void build_level0(Level<D>& lv, bool has_previous);
+  // Builds the next tree into scratch_ from the current one and the decision, per current
+  // cell, whether it has children in the next tree; carries fields; swaps.
+  void rebuild(const std::vector<std::uint8_t>& refined_next);
+  void build_children(int l, std::vector<Level<D>>& next) const;
+  void finish_ghosts(Level<D>& lv, int l) const;
+  void transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells);
+  void collect_leaves();
+  // Balances flags_ (per cell: +1 split, -1 merge candidate), decides, rebuilds.
+  AdaptCounts decide_and_rebuild(int min_level);
+
+  TreeOptions<D> options_;
+  std::vector<double> cell_size_;
+  std::vector<Index> root_index_;  // dense over the brick, x fastest
+  std::vector<Level<D>> levels_;   // max_level + 1 entries; those deeper than depth_ are empty
+  std::vector<Level<D>> scratch_;  // the next tree during a rebuild
+  std::vector<Index> leaves_;
+  int depth_ = 0;
+  Index num_cells_ = 0;
+
+  std::vector<FieldSpec<D>> fields_;
+  std::vector<std::vector<double>> data_;
+  std::vector<std::vector<double>> data_scratch_;
+
+  // adapt() scratch
+  std::vector<float> error_;
+  std::vector<std::int8_t> flags_;
+  std::vector<std::uint8_t> refined_next_;
+  std::vector<std::pair<Index, int>> balance_stack_;
+};
+
+extern template class Tree<2>;
+extern template class Tree<3>;
+
+}  // namespace capsflow::tree

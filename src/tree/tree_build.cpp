@@ -1,0 +1,418 @@
+// Building the forest's topology, top-down, level by level (see tree.hpp).
+//
+// Level 0 is the brick of roots. For each level l, given its cells, which of them are
+// parents in the new tree, and their neighbour rows:
+//   A. mark every leaf and ghost of level l that is a neighbour of a parent: leaves get halo
+//      children, ghosts get ghost children (2:1 balance guarantees a parent's neighbours are
+//      active cells or ghosts, never halo cells);
+//   B. allocate level l+1 as [children of parents | halo children | ghost children], each in
+//      its parent's (Morton) order;
+//   C. for each parent P, the 4^D block of level-(l+1) cells around P's children consists of
+//      children of P's 3^D neighbourhood (all of which now have children), so each child's
+//      3^D - 1 neighbours are read from that block: no search, O(1) per entry.
+// A ghost's source (the cell it is filled from) is found in the same block.
+#include <algorithm>
+#include <atomic>
+#include <cassert>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "tree/tree.hpp"
+
+namespace capsflow::tree {
+
+namespace {
+
+// Position of an offset o in {-1,0,1}^D within a 3^D block: sum_d (o_d + 1) 3^d.
+template <int D>
+constexpr int code_of(const Offset<D>& o) {
+  int code = 0;
+  for (int d = D - 1; d >= 0; --d) code = code * 3 + (o[d] + 1);
+  return code;
+}
+
+template <int D>
+struct BlockTables {
+  static constexpr int kCodes = ipow(3, D);
+  static constexpr int kBlock = ipow(4, D);
+  // For each of the 3^D parent-level positions, the neighbour slot (or -1 for the centre).
+  std::array<int, kCodes> slot_of_code{};
+  // For each block position q (4 per direction, child coordinates -1..2 relative to the
+  // parent's first child): which parent-level position holds it and which child it is.
+  std::array<int, kBlock> code_of_block{};
+  std::array<int, kBlock> child_of_block{};
+  // For each child b of the parent and each neighbour slot s: the block position.
+  std::array<std::array<int, kStencil<D>>, kChildren<D>> block_of_child_slot{};
+  std::array<int, D> stride{};  // block stride per direction
+
+  constexpr BlockTables() {
+    slot_of_code.fill(-1);
+    for (int s = 0; s < kStencil<D>; ++s) slot_of_code[code_of<D>(kOffsets<D>[s])] = s;
+    for (int d = 0, st = 1; d < D; ++d, st *= 4) stride[d] = st;
+    for (int q = 0; q < kBlock; ++q) {
+      Offset<D> parent_offset{};
+      int child = 0;
+      for (int d = 0, r = q; d < D; ++d, r /= 4) {
+        const int qd = r % 4;
+        parent_offset[d] = qd == 0 ? -1 : (qd == 3 ? 1 : 0);
+        child |= ((qd + 1) & 1) << d;
+      }
+      code_of_block[q] = code_of<D>(parent_offset);
+      child_of_block[q] = child;
+    }
+    for (int b = 0; b < kChildren<D>; ++b)
+      for (int s = 0; s < kStencil<D>; ++s) {
+        int q = 0;
+        for (int d = 0; d < D; ++d) q += (((b >> d) & 1) + 1 + kOffsets<D>[s][d]) * stride[d];
+        block_of_child_slot[b][s] = q;
+      }
+  }
+};
+
+template <int D>
+inline constexpr BlockTables<D> kBlockTables{};
+
+template <int D>
+std::int64_t extent(const TreeOptions<D>& o, int d, int l) {
+  return static_cast<std::int64_t>(o.roots[d]) << l;
+}
+
+// The side a ghost is filled across: its first direction outside the brick.
+template <int D>
+std::int8_t ghost_side_of(const TreeOptions<D>& o, const Coords<D>& c, int l) {
+  for (int d = 0; d < D; ++d) {
+    if (c[d] < 0) return static_cast<std::int8_t>(2 * d);
+    if (c[d] >= extent(o, d, l)) return static_cast<std::int8_t>(2 * d + 1);
+  }
+  return -1;
+}
+
+void check_index_range(std::int64_t n) {
+  if (n > std::numeric_limits<Index>::max())
+    throw std::length_error(fmt::format("tree: {} cells exceed the 32-bit cell index", n));
+}
+
+}  // namespace
+
+template <int D>
+Tree<D>::Tree(const TreeOptions<D>& options) : options_(options) {
+  validate(options_);
+  cell_size_.resize(options_.max_level + 1);
+  for (int l = 0; l <= options_.max_level; ++l) cell_size_[l] = options_.root_size / double(1 << l);
+  levels_.resize(options_.max_level + 1);
+  scratch_.resize(options_.max_level + 1);
+  build_level0(levels_[0], false);
+  std::fill(levels_[0].leaf.begin(), levels_[0].leaf.end(), std::uint8_t{1});
+  depth_ = 0;
+  num_cells_ = levels_[0].size();
+  collect_leaves();
+}
+
+template <int D>
+void Tree<D>::build_level0(Level<D>& lv, bool has_previous) {
+  const auto& o = options_;
+  std::int64_t n = 1;
+  for (int d = 0; d < D; ++d) n *= o.roots[d];
+  check_index_range(n);
+  // Roots in Morton order of their coordinates.
+  std::vector<std::pair<Key, Coords<D>>> roots;
+  roots.reserve(n);
+  for (std::int64_t r = 0; r < n; ++r) {
+    Coords<D> c{};
+    std::int64_t rest = r;
+    for (int d = 0; d < D; ++d) {
+      c[d] = static_cast<std::int32_t>(rest % o.roots[d]);
+      rest /= o.roots[d];
+    }
+    roots.emplace_back(morton_encode<D>(c), c);
+  }
+  std::sort(roots.begin(), roots.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  auto dense = [&](const Coords<D>& c) {
+    std::int64_t k = 0;
+    for (int d = D - 1; d >= 0; --d) k = k * o.roots[d] + c[d];
+    return k;
+  };
+  auto& root_index = root_index_;  // the same at every rebuild
+  root_index.assign(n, kNone);
+  lv.base = 0;
+  lv.n_active = static_cast<Index>(n);
+  lv.n_halo = 0;
+  lv.keys.resize(n);
+  for (Index i = 0; i < lv.n_active; ++i) {
+    lv.keys[i] = roots[i].first;
+    root_index[dense(roots[i].second)] = i;
+  }
+  // Neighbours: wrap periodic directions, collect ghosts beyond the others.
+  std::map<Coords<D>, Index> ghosts;
+  std::vector<Coords<D>> ghost_coords;
+  auto neighbour_of = [&](const Coords<D>& c, bool create) -> Index {
+    Coords<D> w = c;
+    bool outside = false;
+    for (int d = 0; d < D; ++d) {
+      if (w[d] >= 0 && w[d] < o.roots[d]) continue;
+      if (o.periodic[d]) w[d] = (w[d] + o.roots[d]) % o.roots[d];
+      else outside = true;
+    }
+    if (!outside) return root_index[dense(w)];
+    auto it = ghosts.find(w);
+    if (it != ghosts.end()) return -2 - it->second;
+    if (!create) return kNone;
+    const auto g = static_cast<Index>(ghost_coords.size());
+    ghosts.emplace(w, g);
+    ghost_coords.push_back(w);
+    return -2 - g;  // provisional: ghost g
+  };
+  lv.face.resize(static_cast<std::size_t>(n) * kFaces<D>);
+  lv.diag.resize(static_cast<std::size_t>(n) * kDiagonals<D>);
+  std::vector<Index> rows(static_cast<std::size_t>(n) * kStencil<D>);
+  for (Index i = 0; i < lv.n_active; ++i)
+    for (int s = 0; s < kStencil<D>; ++s) {
+      Coords<D> c = roots[i].second;
+      for (int d = 0; d < D; ++d) c[d] += kOffsets<D>[s][d];
+      rows[static_cast<std::size_t>(i) * kStencil<D> + s] = neighbour_of(c, true);
+    }
+  lv.n_ghost = static_cast<Index>(ghost_coords.size());
+  const Index ghost_begin = lv.ghost_begin();
+  for (Index i = 0; i < lv.n_active; ++i)
+    for (int s = 0; s < kStencil<D>; ++s) {
+      Index nb = rows[static_cast<std::size_t>(i) * kStencil<D> + s];
+      if (nb < 0) nb = ghost_begin + (-2 - nb);
+      if (s < kFaces<D>) lv.face[static_cast<std::size_t>(i) * kFaces<D> + s] = nb;
+      else lv.diag[static_cast<std::size_t>(i) * kDiagonals<D> + s - kFaces<D>] = nb;
+    }
+  lv.ghost_coords = ghost_coords;
+  lv.ghost_side.resize(lv.n_ghost);
+  lv.ghost_source.assign(lv.n_ghost, kNone);
+  for (Index g = 0; g < lv.n_ghost; ++g) {
+    const auto side = ghost_side_of<D>(o, ghost_coords[g], 0);
+    lv.ghost_side[g] = side;
+    Coords<D> src = ghost_coords[g];
+    src[side / 2] += (side & 1) ? -1 : 1;
+    const Index s = neighbour_of(src, false);
+    lv.ghost_source[g] = s < -1 ? ghost_begin + (-2 - s) : s;
+  }
+  lv.first_child.assign(lv.size(), kNone);
+  lv.leaf.resize(lv.n_active);
+  lv.halo_parent.clear();
+  lv.old_index.resize(lv.n_active);
+  for (Index i = 0; i < lv.n_active; ++i) lv.old_index[i] = has_previous ? i : kNone;
+  finish_ghosts(lv, 0);
+}
+
+template <int D>
+void Tree<D>::finish_ghosts(Level<D>& lv, int l) const {
+  // Faces first, then edges, then corners: each is filled from one with fewer outside
+  // directions. Ghosts no active cell reads (the outer children of ghosts) have no source.
+  lv.ghost_fill.clear();
+  for (int outside = 1; outside <= D; ++outside)
+    for (Index g = 0; g < lv.n_ghost; ++g) {
+      if (lv.ghost_source[g] == kNone) continue;
+      int count = 0;
+      for (int d = 0; d < D; ++d)
+        count += lv.ghost_coords[g][d] < 0 || lv.ghost_coords[g][d] >= extent(options_, d, l);
+      if (count == outside) lv.ghost_fill.push_back(lv.ghost_begin() + g);
+    }
+}
+
+template <int D>
+void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
+  constexpr int C = kChildren<D>;
+  const auto& T = kBlockTables<D>;
+  Level<D>& cur = next[l];
+  Level<D>& nx = next[l + 1];
+  const Level<D>& old = levels_[l];  // the same level of the previous tree
+  const Index na = cur.n_active;
+  const Index cur_base = cur.base;
+
+  // A. Mark the leaves and ghosts next to a parent.
+  cur.mark.assign(cur.size(), 0);
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < na; ++i) {
+    if (cur.leaf[i]) continue;
+    const Index c = cur_base + i;
+    for (int s = 0; s < kStencil<D>; ++s) {
+      const Index n = cur.neighbor(c, s) - cur_base;
+      assert(n < na || n >= na + cur.n_halo);  // 2:1 balance: never a halo cell
+      if (n >= na || cur.leaf[n])
+        std::atomic_ref<std::uint8_t>(cur.mark[n]).store(1, std::memory_order_relaxed);
+    }
+  }
+
+  // B. Allocate level l+1.
+  std::int64_t parents = 0, halo_groups = 0, ghost_groups = 0;
+  for (Index i = 0; i < na; ++i) {
+    parents += !cur.leaf[i];
+    halo_groups += cur.leaf[i] && cur.mark[i];
+  }
+  for (Index g = cur.n_active + cur.n_halo; g < cur.size(); ++g) ghost_groups += cur.mark[g];
+  check_index_range(cur_base + cur.size() + (parents + halo_groups + ghost_groups) * C);
+  nx.base = cur_base + cur.size();
+  nx.n_active = static_cast<Index>(parents * C);
+  nx.n_halo = static_cast<Index>(halo_groups * C);
+  nx.n_ghost = static_cast<Index>(ghost_groups * C);
+  nx.keys.resize(nx.n_active + nx.n_halo);
+  nx.face.resize(static_cast<std::size_t>(nx.n_active) * kFaces<D>);
+  nx.diag.resize(static_cast<std::size_t>(nx.n_active) * kDiagonals<D>);
+  nx.first_child.assign(nx.size(), kNone);
+  nx.leaf.resize(nx.n_active);
+  nx.old_index.resize(nx.n_active);
+  nx.halo_parent.resize(halo_groups);
+  nx.ghost_source.assign(nx.n_ghost, kNone);
+  nx.ghost_side.resize(nx.n_ghost);
+  nx.ghost_coords.resize(nx.n_ghost);
+
+  Index next_active = nx.active_begin(), next_halo = nx.halo_begin(),
+        next_ghost = nx.ghost_begin();
+  for (Index i = 0; i < na; ++i) {
+    Index& fc = cur.first_child[i];
+    if (!cur.leaf[i]) {
+      fc = next_active;
+      next_active += C;
+    } else if (cur.mark[i]) {
+      fc = next_halo;
+      const Index h = next_halo - nx.halo_begin();
+      nx.halo_parent[h / C] = cur_base + i;
+      for (int b = 0; b < C; ++b) nx.keys[nx.n_active + h + b] = child_key<D>(cur.keys[i], b);
+      next_halo += C;
+    } else {
+      fc = kNone;
+    }
+  }
+  for (Index i = na; i < na + cur.n_halo; ++i) cur.first_child[i] = kNone;
+  for (Index g = 0; g < cur.n_ghost; ++g) {
+    Index& fc = cur.first_child[na + cur.n_halo + g];
+    if (!cur.mark[na + cur.n_halo + g]) {
+      fc = kNone;
+      continue;
+    }
+    fc = next_ghost;
+    const Index first = next_ghost - nx.ghost_begin();
+    for (int b = 0; b < C; ++b) {
+      Coords<D> c{};
+      for (int d = 0; d < D; ++d) c[d] = 2 * cur.ghost_coords[g][d] + child_bit(b, d);
+      nx.ghost_coords[first + b] = c;
+      nx.ghost_side[first + b] = ghost_side_of<D>(options_, c, l + 1);
+    }
+    next_ghost += C;
+  }
+
+  // C. Neighbour rows of every child, from the 4^D block around each parent.
+  const Index nx_base = nx.base, nx_ghost_begin = nx.ghost_begin();
+  const Index cur_ghost_begin = cur.ghost_begin();
+  const bool has_old = l <= depth_ && !old.leaf.empty();
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < na; ++i) {
+    if (cur.leaf[i]) continue;
+    const Index parent = cur_base + i;
+    Index firsts[BlockTables<D>::kCodes];
+    bool touches_ghost = false;
+    for (int code = 0; code < BlockTables<D>::kCodes; ++code) {
+      const int s = T.slot_of_code[code];
+      const Index n = s < 0 ? parent : cur.neighbor(parent, s);
+      touches_ghost |= n >= cur_ghost_begin;
+      firsts[code] = cur.first_child[n - cur_base];
+      assert(firsts[code] != kNone);
+    }
+    Index block[BlockTables<D>::kBlock];
+    for (int q = 0; q < BlockTables<D>::kBlock; ++q)
+      block[q] = firsts[T.code_of_block[q]] + T.child_of_block[q];
+
+    const Index row0 = cur.first_child[i] - nx_base;
+    Index old_first = kNone;
+    if (has_old && cur.old_index[i] != kNone) {
+      const Index o = cur.old_index[i] - old.base;
+      if (!old.leaf[o]) old_first = old.first_child[o];
+    }
+    for (int b = 0; b < C; ++b) {
+      const Index r = row0 + b;
+      Index* face = nx.face.data() + static_cast<std::size_t>(r) * kFaces<D>;
+      Index* diag = nx.diag.data() + static_cast<std::size_t>(r) * kDiagonals<D>;
+      const auto& slots = T.block_of_child_slot[b];
+      for (int s = 0; s < kFaces<D>; ++s) face[s] = block[slots[s]];
+      for (int s = kFaces<D>; s < kStencil<D>; ++s) diag[s - kFaces<D>] = block[slots[s]];
+      nx.keys[r] = child_key<D>(cur.keys[i], b);
+      nx.old_index[r] = old_first == kNone ? kNone : old_first + b;
+    }
+    if (!touches_ghost) continue;
+    // Ghost children in the block take their source one step inward, also in the block.
+    for (int q = 0; q < BlockTables<D>::kBlock; ++q) {
+      const Index g = block[q];
+      if (g < nx_ghost_begin) continue;
+      const int side = nx.ghost_side[g - nx_ghost_begin];
+      const int inward = (side & 1) ? -1 : 1;
+      const Index src = block[q + inward * T.stride[side / 2]];
+      std::atomic_ref<Index>(nx.ghost_source[g - nx_ghost_begin])
+          .store(src, std::memory_order_relaxed);
+    }
+  }
+  finish_ghosts(nx, l + 1);
+}
+
+template <int D>
+void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
+  auto& next = scratch_;
+  build_level0(next[0], true);
+  int l = 0;
+  for (;; ++l) {
+    Level<D>& cur = next[l];
+    Index parents = 0;
+#pragma omp parallel for schedule(static) reduction(+ : parents)
+    for (Index i = 0; i < cur.n_active; ++i) {
+      const Index o = cur.old_index[i];
+      const bool refined = o != kNone && refined_next[o];
+      cur.leaf[i] = !refined;
+      parents += refined;
+    }
+    if (parents == 0) break;
+    if (l == options_.max_level)
+      throw std::logic_error("tree: refinement below max_level requested");
+    build_children(l, next);
+  }
+  for (int k = l + 1; k <= options_.max_level; ++k) {
+    next[k].base = next[l].base + next[l].size();
+    next[k].n_active = next[k].n_halo = next[k].n_ghost = 0;
+  }
+  const Index cells = next[l].base + next[l].size();
+  // Fields move to the new cells while both trees exist.
+  transfer_fields(next, l, cells);
+  std::swap(levels_, scratch_);
+  depth_ = l;
+  num_cells_ = cells;
+  collect_leaves();
+}
+
+template <int D>
+void Tree<D>::collect_leaves() {
+  leaves_.clear();
+  for (int l = 0; l <= depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    for (Index i = 0; i < lv.n_active; ++i)
+      if (lv.leaf[i]) leaves_.push_back(lv.base + i);
+  }
+}
+
+template <int D>
+std::size_t Tree<D>::topology_bytes() const {
+  std::size_t bytes = leaves_.size() * sizeof(Index) + root_index_.size() * sizeof(Index);
+  for (int l = 0; l <= depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    bytes += lv.keys.size() * sizeof(Key) + lv.face.size() * sizeof(Index) +
+             lv.diag.size() * sizeof(Index) + lv.first_child.size() * sizeof(Index) +
+             lv.leaf.size() + lv.halo_parent.size() * sizeof(Index) +
+             lv.ghost_source.size() * sizeof(Index) + lv.ghost_side.size() +
+             lv.ghost_coords.size() * sizeof(Coords<D>) + lv.ghost_fill.size() * sizeof(Index);
+  }
+  return bytes;
+}
+
+// The class is instantiated here; the members defined in the other tree_*.cpp files are
+// instantiated there, one by one.
+template class Tree<2>;
+template class Tree<3>;
+
+}  // namespace capsflow::tree

@@ -1,0 +1,165 @@
+// Field values outside the leaves (restriction, halo, ghosts) and the transfer of fields
+// to a new tree. One mechanism serves every solver: see the rules in prolongation.hpp
+// (levels) and boundary.hpp (sides).
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "tree/prolongation.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::tree {
+
+namespace {
+
+template <int D>
+ParentSlopes<D> slopes_of(const Level<D>& lv, Index parent, std::span<const double> v,
+                          Prolongation p) {
+  const Index* row = lv.face_row(parent);
+  double lo[D], hi[D];
+  for (int d = 0; d < D; ++d) {
+    lo[d] = v[row[2 * d]];
+    hi[d] = v[row[2 * d + 1]];
+  }
+  return p == Prolongation::limited ? ParentSlopes<D>::limited(v[parent], lo, hi)
+                                    : ParentSlopes<D>::linear(v[parent], lo, hi);
+}
+
+}  // namespace
+
+template <int D>
+FieldId Tree<D>::add_field(FieldSpec<D> spec) {
+  for (const auto& f : fields_)
+    if (f.name == spec.name)
+      throw std::invalid_argument(fmt::format("tree: field '{}' is registered twice", spec.name));
+  fields_.push_back(std::move(spec));
+  data_.emplace_back(num_cells_, 0.0);
+  data_scratch_.emplace_back();
+  return static_cast<FieldId>(fields_.size() - 1);
+}
+
+template <int D>
+void Tree<D>::restrict_level(int l, std::span<double> v) const {
+  constexpr int C = kChildren<D>;
+  const Level<D>& lv = levels_[l];
+  const Index b = lv.active_begin(), e = lv.active_end();
+#pragma omp parallel for schedule(static)
+  for (Index c = b; c < e; ++c) {
+    if (lv.leaf[c - b]) continue;
+    const Index fc = lv.first_child[c - b];
+    double sum = 0.0;
+    for (int k = 0; k < C; ++k) sum += v[fc + k];
+    v[c] = sum * (1.0 / C);
+  }
+}
+
+template <int D>
+void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p) const {
+  constexpr int C = kChildren<D>;
+  if (l <= 0 || l > depth_) return;
+  const Level<D>& lv = levels_[l];
+  const Level<D>& coarse = levels_[l - 1];
+  const Index groups = lv.n_halo / C;
+  const Index first = lv.halo_begin();
+#pragma omp parallel for schedule(static)
+  for (Index g = 0; g < groups; ++g) {
+    const auto s = slopes_of<D>(coarse, lv.halo_parent[g], v, p);
+    for (int k = 0; k < C; ++k) v[first + g * C + k] = s.child(k);
+  }
+}
+
+template <int D>
+void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const {
+  const Level<D>& lv = levels_[l];
+  const double h = cell_size_[l];
+  const Index g0 = lv.ghost_begin();
+  for (const Index g : lv.ghost_fill) {
+    const Index local = g - g0;
+    const int side = lv.ghost_side[local];
+    const SideCondition<D>& sc = bc.side[side];
+    double value = sc.value;
+    if (sc.function) {
+      // The boundary point between the ghost and its source.
+      Point<D> x = center_at(l, lv.ghost_coords[local]);
+      x[side / 2] += (side & 1) ? -0.5 * h : 0.5 * h;
+      value = sc.function(x);
+    }
+    const double inner = v[lv.ghost_source[local]];
+    v[g] = sc.kind == BcKind::dirichlet ? 2.0 * value - inner : inner + h * value;
+  }
+}
+
+template <int D>
+void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
+  if (p == Prolongation::none) p = Prolongation::linear;
+  for (int l = depth_ - 1; l >= 0; --l) restrict_level(l, v);
+  for (int l = 0; l <= depth_; ++l) {
+    fill_halo(l, v, p);
+    fill_ghosts(l, v, bc);
+  }
+}
+
+template <int D>
+void Tree<D>::sync(FieldId f) {
+  const FieldSpec<D>& spec = fields_.at(f);
+  sync(data_[f], spec.bc, spec.prolongation);
+}
+
+template <int D>
+void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells) {
+  constexpr int C = kChildren<D>;
+  for (std::size_t f = 0; f < fields_.size(); ++f) {
+    std::vector<double>& out = data_scratch_[f];
+    out.resize(cells);
+    const Prolongation p = fields_[f].prolongation;
+    if (p == Prolongation::none) {
+      std::fill(out.begin(), out.end(), 0.0);
+    } else {
+      const std::span<const double> in = data_[f];
+      for (int l = 0; l <= new_depth; ++l) {
+        const Level<D>& nl = next[l];
+        const Level<D>* ol = l <= depth_ ? &levels_[l] : nullptr;
+#pragma omp parallel for schedule(static)
+        for (Index i = 0; i < nl.n_active; ++i) {
+          const Index o = nl.old_index[i];
+          if (o == kNone) continue;  // a new child: written by its parent below
+          const Index ol_local = o - ol->base;
+          const bool was_leaf = ol->leaf[ol_local] != 0;
+          const bool is_leaf = nl.leaf[i] != 0;
+          if (!was_leaf && is_leaf) {  // coarsened: volume average of the old children
+            const Index fc = ol->first_child[ol_local];
+            double sum = 0.0;
+            for (int k = 0; k < C; ++k) sum += in[fc + k];
+            out[nl.base + i] = sum * (1.0 / C);
+          } else {
+            out[nl.base + i] = in[o];
+          }
+          if (was_leaf && !is_leaf) {  // refined: prolong from the old leaf and its neighbours
+            const auto s = slopes_of<D>(*ol, o, in, p);
+            const Index fc = nl.first_child[i];
+            for (int k = 0; k < C; ++k) out[fc + k] = s.child(k);
+          }
+        }
+      }
+    }
+    std::swap(data_[f], out);
+  }
+}
+
+template FieldId Tree<2>::add_field(FieldSpec<2>);
+template void Tree<2>::restrict_level(int, std::span<double>) const;
+template void Tree<2>::fill_halo(int, std::span<double>, Prolongation) const;
+template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
+template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
+template void Tree<2>::sync(FieldId);
+template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
+template FieldId Tree<3>::add_field(FieldSpec<3>);
+template void Tree<3>::restrict_level(int, std::span<double>) const;
+template void Tree<3>::fill_halo(int, std::span<double>, Prolongation) const;
+template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
+template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
+template void Tree<3>::sync(FieldId);
+template void Tree<3>::transfer_fields(const std::vector<Level<3>>&, int, Index);
+
+}  // namespace capsflow::tree
