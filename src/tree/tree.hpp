@@ -43,10 +43,15 @@ namespace capsflow::tree {
 
 using Index = std::int32_t;
 inline constexpr Index kNone = -1;
+// Loops over fewer cells than this run on one thread: a parallel region costs more than
+// the work on the coarse levels of a multigrid cycle.
+inline constexpr Index kParallelMin = 4096;
 
-// How a field's values reach new fine cells (refinement, halo filling). Restriction is
-// always the volume average. `none` marks scratch fields: adapt() only resizes them.
-enum class Prolongation : unsigned char { linear, limited, none };
+// How a field's values reach new fine cells (refinement, halo filling); see
+// prolongation.hpp. Restriction is always the volume average. `quadratic` is for halo
+// values only (refinement uses linear then: it must conserve). `none` marks scratch
+// fields: adapt() only resizes them.
+enum class Prolongation : unsigned char { linear, limited, quadratic, none };
 
 template <int D>
 struct FieldSpec {
@@ -153,14 +158,14 @@ class Tree {
   template <class F>
   void for_each_leaf(F&& f) const {
     const Index n = num_leaves();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (Index i = 0; i < n; ++i) f(leaves_[i]);
   }
   template <class F>
   void for_each_cell_at_level(int l, F&& f) const {
     const Level<D>& lv = levels_[l];
     const Index b = lv.active_begin(), e = lv.active_end();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (e - b > kParallelMin)
     for (Index c = b; c < e; ++c) f(c);
   }
 
@@ -176,6 +181,9 @@ class Tree {
   void restrict_level(int l, std::span<double> v) const;
   // Halo cells of level l get values prolonged from their coarse leaf (level l-1).
   void fill_halo(int l, std::span<double> v, Prolongation p) const;
+  // Active cells of level l get values prolonged from their parents (level l-1), whose
+  // face neighbours must hold valid values (the multigrid's coarse-to-fine step).
+  void prolong_level(int l, std::span<double> v, Prolongation p) const;
   // Ghost cells of level l get the boundary-condition values.
   void fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const;
   // All of the above, in dependency order: restriction bottom-up, then level by level halo

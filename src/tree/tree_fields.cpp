@@ -26,6 +26,17 @@ ParentSlopes<D> slopes_of(const Level<D>& lv, Index parent, std::span<const doub
                                     : ParentSlopes<D>::linear(v[parent], lo, hi);
 }
 
+// The parent's 3^D neighbourhood, indexed as quadratic_child expects.
+template <int D>
+void block_of(const Level<D>& lv, Index parent, std::span<const double> v, double* block) {
+  for (int s = 0; s < kStencil<D>; ++s) {
+    int code = 0;
+    for (int d = D - 1; d >= 0; --d) code = code * 3 + kOffsets<D>[s][d] + 1;
+    block[code] = v[lv.neighbor(parent, s)];
+  }
+  block[(ipow(3, D) - 1) / 2] = v[parent];
+}
+
 }  // namespace
 
 template <int D>
@@ -44,7 +55,7 @@ void Tree<D>::restrict_level(int l, std::span<double> v) const {
   constexpr int C = kChildren<D>;
   const Level<D>& lv = levels_[l];
   const Index b = lv.active_begin(), e = lv.active_end();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (e - b > kParallelMin)
   for (Index c = b; c < e; ++c) {
     if (lv.leaf[c - b]) continue;
     const Index fc = lv.first_child[c - b];
@@ -62,10 +73,33 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p) const {
   const Level<D>& coarse = levels_[l - 1];
   const Index groups = lv.n_halo / C;
   const Index first = lv.halo_begin();
-#pragma omp parallel for schedule(static)
+  if (p == Prolongation::quadratic) {
+#pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
+    for (Index g = 0; g < groups; ++g) {
+      double block[ipow(3, D)];
+      block_of<D>(coarse, lv.halo_parent[g], v, block);
+      for (int k = 0; k < C; ++k) v[first + g * C + k] = quadratic_child<D>(block, k);
+    }
+    return;
+  }
+#pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
   for (Index g = 0; g < groups; ++g) {
     const auto s = slopes_of<D>(coarse, lv.halo_parent[g], v, p);
     for (int k = 0; k < C; ++k) v[first + g * C + k] = s.child(k);
+  }
+}
+
+template <int D>
+void Tree<D>::prolong_level(int l, std::span<double> v, Prolongation p) const {
+  constexpr int C = kChildren<D>;
+  if (l <= 0 || l > depth_) return;
+  const Level<D>& coarse = levels_[l - 1];
+#pragma omp parallel for schedule(static) if (coarse.n_active > kParallelMin / C)
+  for (Index i = 0; i < coarse.n_active; ++i) {
+    if (coarse.leaf[i]) continue;
+    const auto s = slopes_of<D>(coarse, coarse.base + i, v, p);
+    const Index fc = coarse.first_child[i];
+    for (int k = 0; k < C; ++k) v[fc + k] = s.child(k);
   }
 }
 
@@ -150,6 +184,7 @@ void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, 
 template FieldId Tree<2>::add_field(FieldSpec<2>);
 template void Tree<2>::restrict_level(int, std::span<double>) const;
 template void Tree<2>::fill_halo(int, std::span<double>, Prolongation) const;
+template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
@@ -157,6 +192,7 @@ template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index)
 template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
 template void Tree<3>::fill_halo(int, std::span<double>, Prolongation) const;
+template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);

@@ -1,0 +1,56 @@
+#pragma once
+// Coefficients of the elliptic operator div(alpha grad a) + lambda a, as small types the
+// operator is templated on, so the common constant case reads no coefficient array.
+//
+// alpha lives on faces: for an active cell c, face k = 2d + side (side 0: low, 1: high).
+// A leaf's face value is the coefficient at the centre of that face; a parent's is the
+// average of its children's values on the same side (so coarse levels see the mean
+// conductance of the fine faces they cover).
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "tree/tree.hpp"
+
+namespace capsflow::fluid {
+
+using tree::Index;
+
+struct ConstantFaces {
+  static constexpr bool kConstant = true;
+  double value = 1.0;
+  double at(Index /*cell*/, int /*face*/) const { return value; }
+};
+
+template <int D>
+struct FaceArray {
+  static constexpr bool kConstant = false;
+  const double* data = nullptr;  // 2D values per cell slot
+  double at(Index c, int face) const { return data[static_cast<std::size_t>(c) * (2 * D) + face]; }
+};
+
+struct ZeroCells {
+  static constexpr bool kConstant = true;
+  double at(Index /*cell*/) const { return 0.0; }
+};
+
+struct ConstantCells {
+  static constexpr bool kConstant = true;
+  double value = 0.0;
+  double at(Index /*cell*/) const { return value; }
+};
+
+struct CellArray {
+  static constexpr bool kConstant = false;
+  const double* data = nullptr;
+  double at(Index c) const { return data[c]; }
+};
+
+// Fills `out` (2D values per cell slot) from alpha(face centre, direction) on the leaves
+// and by averaging onto parents.
+template <int D>
+void face_coefficients(const tree::Tree<D>& t,
+                       const std::function<double(const tree::Point<D>&, int)>& alpha,
+                       std::vector<double>& out);
+
+}  // namespace capsflow::fluid

@@ -1,0 +1,171 @@
+#pragma once
+// The operator L(a) = div(alpha grad a) + lambda a, cell-centred finite volumes on the tree.
+//
+// On a leaf c of size h with face neighbours n_k:
+//   L(a)_c = sum_k F_k / h + lambda_c a_c,   F_k = alpha_k (a_{n_k} - a_c) / h
+// where F_k is the flux per unit area out of c through face k. Neighbours are same-level
+// cells (halo cells across a jump to a coarser region, ghosts across a wall), except when
+// the neighbour is a parent: then F_k is the mean of the 2^(D-1) fine fluxes through that
+// face, each computed by the fine leaf against c's halo child. What leaves one side enters
+// the other, so sum_c h^D L(a)_c telescopes to the boundary fluxes exactly (conservation).
+//
+// Relaxation (smoothing of L(da) = r on the active cells of one level, the multigrid's
+// level operator) uses the plain same-level stencil:
+//   da_c <- (sum_k alpha_k da_{n_k} - h^2 r_c) / (sum_k alpha_k - h^2 lambda_c)
+// by red-black Gauss-Seidel (colour = parity of i+j+k) or weighted Jacobi.
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <span>
+#include <type_traits>
+#include <utility>
+
+#include "fluid/multigrid/coefficients.hpp"
+#include "fluid/multigrid/multigrid_options.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::fluid {
+
+template <int D, class Alpha = ConstantFaces, class Lambda = ZeroCells>
+class EllipticOperator {
+ public:
+  static constexpr int kDimension = D;
+  static constexpr int F = 2 * D;
+  static constexpr int C = tree::kChildren<D>;
+
+  EllipticOperator(const tree::Tree<D>& t, Alpha alpha, Lambda lambda, tree::BoundaryConditions<D> bc)
+      : tree_(t), alpha_(alpha), lambda_(lambda), bc_(std::move(bc)), correction_bc_(bc_.homogeneous()) {}
+
+  const tree::Tree<D>& tree() const { return tree_; }
+  const tree::BoundaryConditions<D>& bc() const { return bc_; }
+  const tree::BoundaryConditions<D>& correction_bc() const { return correction_bc_; }
+
+  // No Dirichlet side on a non-periodic direction and no lambda: a is defined up to a
+  // constant and b must be compatible with the boundary fluxes.
+  bool singular() const {
+    if constexpr (std::is_same_v<Lambda, ZeroCells>) {
+      for (int s = 0; s < F; ++s)
+        if (!tree_.options().periodic[s / 2] && bc_.side[s].kind == tree::BcKind::dirichlet) return false;
+      return true;
+    } else {
+      return false;
+    }
+  }
+
+  // L(a) at leaf c of level l; a must be synced (tree::Tree::sync with bc()).
+  double apply(const tree::Level<D>& lv, Index c, double h, std::span<const double> a) const {
+    const Index* row = lv.face_row(c);
+    const double ac = a[c];
+    double sum = 0.0;
+    for (int k = 0; k < F; ++k) {
+      const Index n = row[k];
+      if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux(lv, c, k, n, h, a);
+      else sum += alpha_.at(c, k) * (a[n] - ac) / h;
+    }
+    return sum / h + lambda_.at(c) * ac;
+  }
+
+  // res = b - L(a) on the leaves; returns max |res| (a synced).
+  double residual(std::span<const double> a, std::span<const double> b, std::span<double> res) const {
+    double worst = 0.0;
+    for (int l = 0; l <= tree_.depth(); ++l) {
+      const tree::Level<D>& lv = tree_.level(l);
+      const double h = tree_.cell_size(l);
+      const Index n = lv.n_active, base = lv.base;
+#pragma omp parallel for schedule(static) reduction(max : worst) if (n > tree::kParallelMin)
+      for (Index i = 0; i < n; ++i) {
+        if (!lv.leaf[i]) continue;
+        const Index c = base + i;
+        res[c] = b[c] - apply(lv, c, h, a);
+        worst = std::max(worst, std::abs(res[c]));
+      }
+    }
+    return worst;
+  }
+
+  // `sweeps` smoothing sweeps of L(da) = res on the active cells of level l. The halo of
+  // level l must hold the coarse correction; ghosts are refilled here.
+  void relax(int l, std::span<double> da, std::span<const double> res, int sweeps,
+             const MultigridOptions& opt, std::span<double> scratch) const {
+    const tree::Level<D>& lv = tree_.level(l);
+    const double h2 = tree_.cell_size(l) * tree_.cell_size(l);
+    for (int s = 0; s < sweeps; ++s) {
+      if (opt.smoother == Smoother::red_black) {
+        relax_colour(lv, 0, h2, da, res);
+        tree_.fill_ghosts(l, da, correction_bc_);
+        relax_colour(lv, 1, h2, da, res);
+      } else {
+        const Index n = lv.n_active, base = lv.base;
+        const double w = opt.jacobi_weight;
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+        for (Index i = 0; i < n; ++i) scratch[base + i] = (1.0 - w) * da[base + i] + w * updated(lv, base + i, h2, da, res);
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+        for (Index i = 0; i < n; ++i) da[base + i] = scratch[base + i];
+      }
+      tree_.fill_ghosts(l, da, correction_bc_);
+    }
+  }
+
+ private:
+  // The relaxed value of da at c from its neighbours' current values.
+  double updated(const tree::Level<D>& lv, Index c, double h2, std::span<const double> da,
+                 std::span<const double> res) const {
+    const Index* row = lv.face_row(c);
+    double off = 0.0, diag = 0.0;
+    if constexpr (Alpha::kConstant) {
+      for (int k = 0; k < F; ++k) off += da[row[k]];
+      off *= alpha_.value;
+      diag = F * alpha_.value;
+    } else {
+      for (int k = 0; k < F; ++k) {
+        const double a = alpha_.at(c, k);
+        off += a * da[row[k]];
+        diag += a;
+      }
+    }
+    return (off - h2 * res[c]) / (diag - h2 * lambda_.at(c));
+  }
+
+  // Gauss-Seidel on one colour. Active cells of levels >= 1 come in sibling groups of 2^D
+  // in child order, and the parity of i+j+k is the parity of the child number's bits.
+  void relax_colour(const tree::Level<D>& lv, int colour, double h2, std::span<double> da,
+                    std::span<const double> res) const {
+    const Index base = lv.base;
+    if (base == 0) {  // level 0: roots are not sibling groups
+      for (Index i = 0; i < lv.n_active; ++i)
+        if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == colour) da[i] = updated(lv, i, h2, da, res);
+      return;
+    }
+    const Index groups = lv.n_active / C;
+#pragma omp parallel for schedule(static) if (lv.n_active > tree::kParallelMin)
+    for (Index g = 0; g < groups; ++g)
+      for (int b = 0; b < C; ++b)
+        if ((std::popcount(static_cast<unsigned>(b)) & 1) == colour) {
+          const Index c = base + g * C + b;
+          da[c] = updated(lv, c, h2, da, res);
+        }
+  }
+
+  // Flux per unit area out of leaf c through face k into the parent n: the mean of the
+  // fine fluxes between n's children and c's halo children on that face.
+  double fine_flux(const tree::Level<D>& lv, Index c, int k, Index n, double h, std::span<const double> a) const {
+    const int d = k / 2, side = k & 1;
+    const Index halo = lv.first_child[c - lv.base];
+    const Index fine = lv.first_child[n - lv.base];
+    double sum = 0.0;
+    for (int b = 0; b < C; ++b) {
+      if (tree::child_bit(b, d) != side) continue;
+      const Index hc = halo + b, nc = fine + (b ^ (1 << d));
+      sum += alpha_.at(nc, k ^ 1) * (a[nc] - a[hc]);
+    }
+    return sum * (2.0 / h) / (C / 2);
+  }
+
+  const tree::Tree<D>& tree_;
+  Alpha alpha_;
+  Lambda lambda_;
+  tree::BoundaryConditions<D> bc_;
+  tree::BoundaryConditions<D> correction_bc_;
+};
+
+}  // namespace capsflow::fluid

@@ -1,0 +1,32 @@
+#pragma once
+// Options and statistics of the multigrid solver (plain values; the caller decides what a
+// failure to converge means).
+#include <vector>
+
+namespace capsflow::fluid {
+
+enum class Smoother { red_black, jacobi };
+
+struct MultigridOptions {
+  double tolerance = 1e-3;  // on max |b - L(a)| over the leaves (Basilisk's default)
+  int min_cycles = 1;
+  int max_cycles = 100;
+  int relax_sweeps = 4;       // smoothing sweeps per level and cycle
+  int coarsest_sweeps = 32;   // on level 0, where a few roots are nearly solved exactly
+  Smoother smoother = Smoother::red_black;
+  double jacobi_weight = 0.8;
+  bool warm_start = true;     // start from the values in `a` (else from zero)
+};
+
+struct [[nodiscard]] MultigridStats {
+  int cycles = 0;
+  double initial_residual = 0.0;
+  double final_residual = 0.0;
+  bool converged = false;
+  std::vector<double> residuals;  // max |residual| before the first cycle and after each
+
+  // Geometric mean of the residual reduction over the first `n` cycles.
+  double mean_reduction(int n) const;
+};
+
+}  // namespace capsflow::fluid
