@@ -1,6 +1,4 @@
-// tree/… benchmarks: the seed channel (4 x 1 x 1 brick of side-2 roots, 6 levels, dx = 1/32
-// at the finest) refined to the finest level in a spherical shell of radius 0.85 (the
-// capsule), half-width 3 finest cells (the 4-cell IBM kernel plus a cell of motion).
+// tree/… benchmarks on the seed channel refined around the capsule shell (seed_channel.hpp).
 // Every time is also reported in dense 7-point Jacobi sweeps over as many cells
 // (bench/baseline.hpp), measured in the same run with the same threads.
 #include <benchmark/benchmark.h>
@@ -12,36 +10,17 @@
 #include <vector>
 
 #include "baseline.hpp"
+#include "seed_channel.hpp"
 #include "tree/tree.hpp"
 
 namespace {
 
 using namespace capsflow::tree;
 
-constexpr int kMaxLevel = 6;
-constexpr double kRadius = 0.85;
-constexpr double kFine = 2.0 / (1 << kMaxLevel);
-constexpr double kHalfWidth = 3 * kFine;
-
-TreeOptions<3> seed_channel() {
-  return {.roots = {4, 1, 1}, .root_size = 2.0, .origin = {-4, -1, -1}, .max_level = kMaxLevel};
-}
-
-// Finest level where a box meets the shell |r - R| <= w around `centre`.
-auto shell(double centre_x) {
-  return [centre_x](const Box<3>& b) {
-    double near = 0.0, far = 0.0;
-    for (int d = 0; d < 3; ++d) {
-      const double c = d == 0 ? centre_x : 0.0;
-      const double lo = b.lo[d] - c, hi = b.hi[d] - c;
-      const double n = lo > 0 ? lo : (hi < 0 ? -hi : 0.0);
-      const double f = std::max(std::abs(lo), std::abs(hi));
-      near += n * n;
-      far += f * f;
-    }
-    return std::sqrt(near) <= kRadius + kHalfWidth && std::sqrt(far) >= kRadius - kHalfWidth ? kMaxLevel : 0;
-  };
-}
+using capsflow::bench::seed_channel;
+constexpr int kMaxLevel = capsflow::bench::kSeedMaxLevel;
+constexpr double kFine = capsflow::bench::kSeedFine;
+auto shell(double centre_x) { return capsflow::bench::seed_shell(centre_x); }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -71,7 +71,9 @@ struct Level {
   std::vector<Index> face;               // n_active rows of kFaces<D> neighbours
   std::vector<Index> diag;               // n_active rows of kDiagonals<D> neighbours
   std::vector<Index> first_child;        // every slot: first of 2^D contiguous children, or kNone
-  std::vector<std::uint8_t> leaf;        // active cells: 1 for a leaf
+  // Active cells: 0 for a parent, 1 for a leaf, 2 for a leaf with a parent among its face
+  // neighbours (a resolution jump to a finer region: fluxes there need the fine side).
+  std::vector<std::uint8_t> leaf;
   std::vector<Index> halo_parent;        // one per group of 2^D halo cells: the coarse leaf
   std::vector<Index> ghost_source;       // the cell a ghost takes its value from, or kNone
   std::vector<std::int8_t> ghost_side;   // the side (2d or 2d+1) it is filled across
@@ -98,6 +100,7 @@ struct Level {
     return face.data() + static_cast<std::size_t>(c - base) * kFaces<D>;
   }
   bool is_leaf(Index c) const { return leaf[c - base] != 0; }
+  static constexpr std::uint8_t kLeaf = 1, kLeafNextToFiner = 2;
 };
 
 struct AdaptCounts {

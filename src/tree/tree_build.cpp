@@ -390,9 +390,18 @@ template <int D>
 void Tree<D>::collect_leaves() {
   leaves_.clear();
   for (int l = 0; l <= depth_; ++l) {
-    const Level<D>& lv = levels_[l];
-    for (Index i = 0; i < lv.n_active; ++i)
-      if (lv.leaf[i]) leaves_.push_back(lv.base + i);
+    Level<D>& lv = levels_[l];
+    for (Index i = 0; i < lv.n_active; ++i) {
+      if (!lv.leaf[i]) continue;
+      leaves_.push_back(lv.base + i);
+      lv.leaf[i] = Level<D>::kLeaf;
+      if (l == depth_) continue;
+      const Index* row = lv.face_row(lv.base + i);
+      for (int k = 0; k < kFaces<D>; ++k) {
+        const Index n = row[k] - lv.base;
+        if (n < lv.n_active && !lv.leaf[n]) lv.leaf[i] = Level<D>::kLeafNextToFiner;
+      }
+    }
   }
 }
 

@@ -30,6 +30,21 @@ void face_coefficients(const tree::Tree<D>& t,
       }
     }
   }
+  // A leaf facing a parent takes the parent's (fine-averaged) value on their common face,
+  // so both sides of every face of a level see the same coefficient (a symmetric level
+  // operator).
+  for (int l = 0; l < t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    for (Index i = 0; i < lv.n_active; ++i) {
+      if (lv.leaf[i] != tree::Level<D>::kLeafNextToFiner) continue;
+      const Index c = lv.base + i;
+      for (int k = 0; k < F; ++k) {
+        const Index n = lv.face_row(c)[k];
+        if (n < lv.active_end() && !lv.is_leaf(n))
+          out[static_cast<std::size_t>(c) * F + k] = out[static_cast<std::size_t>(n) * F + (k ^ 1)];
+      }
+    }
+  }
 }
 
 template void face_coefficients<2>(const tree::Tree<2>&,

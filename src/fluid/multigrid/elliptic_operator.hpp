@@ -57,10 +57,17 @@ class EllipticOperator {
     const Index* row = lv.face_row(c);
     const double ac = a[c];
     double sum = 0.0;
-    for (int k = 0; k < F; ++k) {
-      const Index n = row[k];
-      if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux(lv, c, k, n, h, a);
-      else sum += alpha_.at(c, k) * (a[n] - ac) / h;
+    if (lv.leaf[c - lv.base] == tree::Level<D>::kLeafNextToFiner) {
+      for (int k = 0; k < F; ++k) {
+        const Index n = row[k];
+        if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux(lv, c, k, n, h, a);
+        else sum += alpha_.at(c, k) * (a[n] - ac) / h;
+      }
+    } else if constexpr (Alpha::kConstant) {
+      for (int k = 0; k < F; ++k) sum += a[row[k]];
+      sum = alpha_.value * (sum - F * ac) / h;
+    } else {
+      for (int k = 0; k < F; ++k) sum += alpha_.at(c, k) * (a[row[k]] - ac) / h;
     }
     return sum / h + lambda_.at(c) * ac;
   }
@@ -81,6 +88,18 @@ class EllipticOperator {
       }
     }
     return worst;
+  }
+
+  // out = L(a) on the leaves (a synced).
+  void apply_leaves(std::span<const double> a, std::span<double> out) const {
+    for (int l = 0; l <= tree_.depth(); ++l) {
+      const tree::Level<D>& lv = tree_.level(l);
+      const double h = tree_.cell_size(l);
+      const Index n = lv.n_active, base = lv.base;
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+      for (Index i = 0; i < n; ++i)
+        if (lv.leaf[i]) out[base + i] = apply(lv, base + i, h, a);
+    }
   }
 
   // `sweeps` smoothing sweeps of L(da) = res on the active cells of level l. The halo of

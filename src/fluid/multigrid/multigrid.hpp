@@ -1,18 +1,22 @@
 #pragma once
 // Geometric multigrid on the tree's own levels (Basilisk's multilevel solver, poisson.h):
-// one cycle, written once, for any operator with residual() and relax().
+// one cycle, written once, for any operator with residual(), apply() and relax().
 //
-// A cycle: the residual r = b - L(a) on the leaves is restricted (volume average) to every
-// parent; then, from level 0 to the deepest, the correction da of level l starts as the
-// prolongation of level l-1's (zero on level 0), its halo is prolonged from the coarse
-// leaves and it is smoothed on the active cells of level l against r; finally a += da on
-// the leaves. Leaves of every level are corrected on their own level, parents stand for
-// the finer cells below them.
+// A cycle (vcycle): the residual r = b - L(a) on the leaves is restricted (volume average)
+// to every parent; then, from level 0 to the deepest, the correction da of level l starts
+// as the prolongation of level l-1's (zero on level 0), its halo is prolonged from the
+// coarse leaves, and it is smoothed on the active cells of level l against r. Leaves of
+// every level are corrected on their own level; parents stand for the finer cells below.
+//
+// solve() either iterates cycles (a += da), or, with `krylov`, uses each cycle as the
+// preconditioner of a flexible conjugate gradient (FCG(1), Notay 2000): search direction
+// p = z + beta p_old made L-conjugate to the previous one, step alpha = <p,r>/<p,Lp>, with
+// the volume-weighted inner product over the leaves in which the operator is symmetric.
 //
 // For a singular problem (pure Neumann/periodic, no lambda) the residual's volume mean is
-// removed at every cycle (compatibility) and the mean of a is fixed to zero.
-#include <cmath>
+// removed (compatibility) and the mean of a is fixed to zero.
 #include <algorithm>
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -23,19 +27,24 @@ namespace capsflow::fluid {
 
 // Scratch arrays of a solve, kept across solves so a cycle allocates nothing.
 struct MultigridWorkspace {
-  std::vector<double> residual, correction, scratch;
-  void resize(std::size_t n) {
+  std::vector<double> residual, correction, scratch, direction, operated, saved;
+  void resize(std::size_t n, bool krylov) {
     residual.resize(n);
     correction.resize(n);
     scratch.resize(n);
+    if (krylov) {
+      direction.resize(n);
+      operated.resize(n);
+      saved.resize(n);
+    }
   }
 };
 
 namespace detail {
 
-// Volume-weighted mean of v over the leaves.
-template <int D>
-double leaf_mean(const tree::Tree<D>& t, std::span<const double> v) {
+// Volume-weighted sum of f(c) over the leaves, and the leaves' volume.
+template <int D, class F>
+std::pair<double, double> leaf_integral(const tree::Tree<D>& t, F&& f) {
   double sum = 0.0, volume = 0.0;
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
@@ -45,28 +54,71 @@ double leaf_mean(const tree::Tree<D>& t, std::span<const double> v) {
 #pragma omp parallel for schedule(static) reduction(+ : s, count) if (lv.n_active > tree::kParallelMin)
     for (tree::Index i = 0; i < lv.n_active; ++i)
       if (lv.leaf[i]) {
-        s += v[lv.base + i];
+        s += f(lv.base + i);
         ++count;
       }
     sum += s * vol;
     volume += count * vol;
   }
+  return {sum, volume};
+}
+
+template <int D>
+double leaf_mean(const tree::Tree<D>& t, std::span<const double> v) {
+  const auto [sum, volume] = leaf_integral<D>(t, [&](tree::Index c) { return v[c]; });
   return sum / volume;
 }
 
 template <int D>
-void add_to_leaves(const tree::Tree<D>& t, std::span<double> a, std::span<const double> da, double shift) {
-  t.for_each_leaf([&](tree::Index c) { a[c] += da[c] - shift; });
+double leaf_dot(const tree::Tree<D>& t, std::span<const double> x, std::span<const double> y) {
+  return leaf_integral<D>(t, [&](tree::Index c) { return x[c] * y[c]; }).first;
+}
+
+template <int D>
+double leaf_max_abs(const tree::Tree<D>& t, std::span<const double> v) {
+  double worst = 0.0;
+  const auto leaves = t.leaves();
+  const auto n = static_cast<tree::Index>(leaves.size());
+#pragma omp parallel for schedule(static) reduction(max : worst) if (n > tree::kParallelMin)
+  for (tree::Index i = 0; i < n; ++i) worst = std::max(worst, std::abs(v[leaves[i]]));
+  return worst;
+}
+
+// Makes r compatible for a singular operator (zero volume mean).
+template <int D>
+void remove_mean(const tree::Tree<D>& t, std::span<double> r) {
+  const double mean = leaf_mean<D>(t, r);
+  t.for_each_leaf([&](tree::Index c) { r[c] -= mean; });
 }
 
 }  // namespace detail
+
+// One cycle: da (on the leaves) approximately solves L(da) = res with homogeneous
+// boundary conditions. res is overwritten on the parents (restriction).
+template <class Op>
+void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span<double> scratch,
+            const MultigridOptions& opt) {
+  const auto& t = op.tree();
+  for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
+  for (int l = 0; l <= t.depth(); ++l) {
+    if (l == 0) {
+      const auto& lv = t.level(0);
+      for (tree::Index c = lv.active_begin(); c < lv.active_end(); ++c) da[c] = 0.0;
+    } else {
+      t.prolong_level(l, da, tree::Prolongation::linear);
+      t.fill_halo(l, da, tree::Prolongation::linear);
+    }
+    t.fill_ghosts(l, da, op.correction_bc());
+    op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch);
+  }
+}
 
 template <class Op>
 MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> b,
                      MultigridWorkspace& ws, const MultigridOptions& opt) {
   constexpr int D = Op::kDimension;
   const tree::Tree<D>& t = op.tree();
-  ws.resize(t.num_cells());
+  ws.resize(t.num_cells(), opt.krylov);
   std::span<double> res = ws.residual, da = ws.correction, scratch = ws.scratch;
   const bool singular = op.singular();
   if (!opt.warm_start) t.for_each_leaf([&](tree::Index c) { a[c] = 0.0; });
@@ -74,37 +126,43 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   auto compute_residual = [&] {
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
     t.sync(a, op.bc(), tree::Prolongation::quadratic);
-    double worst = op.residual(a, b, res);
-    if (singular) {
-      const double mean = detail::leaf_mean<D>(t, res);
-      worst = 0.0;
-      for (const tree::Index c : t.leaves()) {
-        res[c] -= mean;
-        worst = std::max(worst, std::abs(res[c]));
-      }
-    }
-    return worst;
+    (void)op.residual(a, b, res);
+    if (singular) detail::remove_mean<D>(t, res);
+    return detail::leaf_max_abs<D>(t, res);
+  };
+  auto fix_mean = [&] {
+    if (!singular) return;
+    const double mean = detail::leaf_mean<D>(t, a);
+    t.for_each_leaf([&](tree::Index c) { a[c] -= mean; });
   };
 
   MultigridStats stats;
   stats.initial_residual = compute_residual();
   stats.residuals.push_back(stats.initial_residual);
   double current = stats.initial_residual;
+  // Krylov state: previous direction p, its image q = L0 p, and <p, q>.
+  std::span<double> p = ws.direction, q = ws.operated, saved = ws.saved;
+  double pq_old = 0.0;
   while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance)) {
-    for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
-    for (int l = 0; l <= t.depth(); ++l) {
-      if (l == 0) {
-        const tree::Level<D>& lv = t.level(0);
-        for (tree::Index c = lv.active_begin(); c < lv.active_end(); ++c) da[c] = 0.0;
-      } else {
-        t.prolong_level(l, da, tree::Prolongation::linear);
-        t.fill_halo(l, da, tree::Prolongation::linear);
-      }
-      t.fill_ghosts(l, da, op.correction_bc());
-      op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch);
+    if (!opt.krylov) {
+      vcycle(op, res, da, scratch, opt);
+      t.for_each_leaf([&](tree::Index c) { a[c] += da[c]; });
+    } else {
+      // z = B r (res is restricted in place: keep the leaf residual for the step).
+      t.for_each_leaf([&](tree::Index c) { saved[c] = res[c]; });
+      vcycle(op, res, da, scratch, opt);
+      t.for_each_leaf([&](tree::Index c) { res[c] = saved[c]; });
+      if (singular) detail::remove_mean<D>(t, da);
+      double beta = 0.0;
+      if (stats.cycles > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
+      t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });
+      t.sync(p, op.correction_bc(), tree::Prolongation::quadratic);
+      op.apply_leaves(p, q);  // L0 p: p's ghosts hold homogeneous values
+      pq_old = detail::leaf_dot<D>(t, p, q);
+      const double step = detail::leaf_dot<D>(t, p, res) / pq_old;
+      t.for_each_leaf([&](tree::Index c) { a[c] += step * p[c]; });
     }
-    const double shift = singular ? detail::leaf_mean<D>(t, a) + detail::leaf_mean<D>(t, da) : 0.0;
-    detail::add_to_leaves<D>(t, a, da, shift);
+    fix_mean();
     current = compute_residual();
     stats.residuals.push_back(current);
     ++stats.cycles;

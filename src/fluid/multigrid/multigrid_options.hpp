@@ -16,6 +16,10 @@ struct MultigridOptions {
   Smoother smoother = Smoother::red_black;
   double jacobi_weight = 0.8;
   bool warm_start = true;     // start from the values in `a` (else from zero)
+  // Use each cycle as the preconditioner of a flexible conjugate gradient (Notay 2000)
+  // instead of iterating cycles alone: robust to large coefficient jumps (a 1000x density
+  // or viscosity ratio), where coarse levels misrepresent the operator.
+  bool krylov = false;
 };
 
 struct [[nodiscard]] MultigridStats {
