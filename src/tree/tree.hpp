@@ -25,6 +25,7 @@
 // Partitioning (a later MPI issue): leaves are ordered along the Morton curve of each level
 // and a rebuild starts from a per-cell "refined" decision, so a partition can build the same
 // structure from its own leaves plus a ghost layer without changing the rebuild.
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -62,6 +63,17 @@ struct FieldSpec {
 
 using FieldId = int;
 
+// Position of child b's row within its group: children of even parity first.
+template <int D>
+inline constexpr auto kRowInGroup = [] {
+  std::array<Index, kChildren<D>> pos{};
+  Index next = 0;
+  for (int parity = 0; parity < 2; ++parity)
+    for (int b = 0; b < kChildren<D>; ++b)
+      if ((__builtin_popcount(static_cast<unsigned>(b)) & 1) == parity) pos[b] = next++;
+  return pos;
+}();
+
 // The cells of one level and their topology. Indices stored here are global.
 template <int D>
 struct Level {
@@ -90,15 +102,18 @@ struct Level {
   Index halo_end() const { return base + n_active + n_halo; }
   Index ghost_begin() const { return halo_end(); }
   Index ghost_end() const { return base + size(); }
+  // Row of the active cell c in the neighbour tables. Within each group of 2^D siblings
+  // the rows are stored by colour (parity of i+j+k) first, so a red-black sweep reads half
+  // of each group's rows per colour (kRowInGroup; the row arrays are padded to whole groups).
+  static std::size_t row_of(Index local) {
+    return static_cast<std::size_t>(local & ~Index{kChildren<D> - 1}) | kRowInGroup<D>[local & (kChildren<D> - 1)];
+  }
   // Neighbour `slot` (see stencil.hpp) of the active cell c of this level.
   Index neighbor(Index c, int slot) const {
-    const Index r = c - base;
-    return slot < kFaces<D> ? face[static_cast<std::size_t>(r) * kFaces<D> + slot]
-                            : diag[static_cast<std::size_t>(r) * kDiagonals<D> + slot - kFaces<D>];
+    const std::size_t r = row_of(c - base);
+    return slot < kFaces<D> ? face[r * kFaces<D> + slot] : diag[r * kDiagonals<D> + slot - kFaces<D>];
   }
-  const Index* face_row(Index c) const {
-    return face.data() + static_cast<std::size_t>(c - base) * kFaces<D>;
-  }
+  const Index* face_row(Index c) const { return face.data() + row_of(c - base) * kFaces<D>; }
   bool is_leaf(Index c) const { return leaf[c - base] != 0; }
   static constexpr std::uint8_t kLeaf = 1, kLeafNextToFiner = 2;
 };

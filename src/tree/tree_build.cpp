@@ -167,8 +167,9 @@ void Tree<D>::build_level0(Level<D>& lv, bool has_previous) {
     ghost_coords.push_back(w);
     return -2 - g;  // provisional: ghost g
   };
-  lv.face.resize(static_cast<std::size_t>(n) * kFaces<D>);
-  lv.diag.resize(static_cast<std::size_t>(n) * kDiagonals<D>);
+  const std::size_t padded = static_cast<std::size_t>((n + kChildren<D> - 1) / kChildren<D> * kChildren<D>);
+  lv.face.assign(padded * kFaces<D>, kNone);
+  lv.diag.assign(padded * kDiagonals<D>, kNone);
   std::vector<Index> rows(static_cast<std::size_t>(n) * kStencil<D>);
   for (Index i = 0; i < lv.n_active; ++i)
     for (int s = 0; s < kStencil<D>; ++s) {
@@ -182,8 +183,9 @@ void Tree<D>::build_level0(Level<D>& lv, bool has_previous) {
     for (int s = 0; s < kStencil<D>; ++s) {
       Index nb = rows[static_cast<std::size_t>(i) * kStencil<D> + s];
       if (nb < 0) nb = ghost_begin + (-2 - nb);
-      if (s < kFaces<D>) lv.face[static_cast<std::size_t>(i) * kFaces<D> + s] = nb;
-      else lv.diag[static_cast<std::size_t>(i) * kDiagonals<D> + s - kFaces<D>] = nb;
+      const std::size_t r = Level<D>::row_of(i);
+      if (s < kFaces<D>) lv.face[r * kFaces<D> + s] = nb;
+      else lv.diag[r * kDiagonals<D> + s - kFaces<D>] = nb;
     }
   lv.ghost_coords = ghost_coords;
   lv.ghost_side.resize(lv.n_ghost);
@@ -330,8 +332,9 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
     }
     for (int b = 0; b < C; ++b) {
       const Index r = row0 + b;
-      Index* face = nx.face.data() + static_cast<std::size_t>(r) * kFaces<D>;
-      Index* diag = nx.diag.data() + static_cast<std::size_t>(r) * kDiagonals<D>;
+      const std::size_t row = Level<D>::row_of(r);
+      Index* face = nx.face.data() + row * kFaces<D>;
+      Index* diag = nx.diag.data() + row * kDiagonals<D>;
       const auto& slots = T.block_of_child_slot[b];
       for (int s = 0; s < kFaces<D>; ++s) face[s] = block[slots[s]];
       for (int s = kFaces<D>; s < kStencil<D>; ++s) diag[s - kFaces<D>] = block[slots[s]];

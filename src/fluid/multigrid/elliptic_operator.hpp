@@ -14,6 +14,7 @@
 //   da_c <- (sum_k alpha_k da_{n_k} - h^2 r_c) / (sum_k alpha_k - h^2 lambda_c)
 // by red-black Gauss-Seidel (colour = parity of i+j+k) or weighted Jacobi.
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <span>
@@ -155,14 +156,19 @@ class EllipticOperator {
         if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == colour) da[i] = updated(lv, i, h2, da, res);
       return;
     }
+    // The children of this colour, in the order of their (colour-sorted) rows.
+    static constexpr auto kOfColour = [] {
+      std::array<std::array<int, C / 2>, 2> of{};
+      for (int b = 0; b < C; ++b) of[tree::kRowInGroup<D>[b] / (C / 2)][tree::kRowInGroup<D>[b] % (C / 2)] = b;
+      return of;
+    }();
     const Index groups = lv.n_active / C;
 #pragma omp parallel for schedule(static) if (lv.n_active > tree::kParallelMin)
     for (Index g = 0; g < groups; ++g)
-      for (int b = 0; b < C; ++b)
-        if ((std::popcount(static_cast<unsigned>(b)) & 1) == colour) {
-          const Index c = base + g * C + b;
-          da[c] = updated(lv, c, h2, da, res);
-        }
+      for (int j = 0; j < C / 2; ++j) {
+        const Index c = base + g * C + kOfColour[colour][j];
+        da[c] = updated(lv, c, h2, da, res);
+      }
   }
 
   // Flux per unit area out of leaf c through face k into the parent n: the mean of the
