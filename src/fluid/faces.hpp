@@ -1,0 +1,131 @@
+#pragma once
+// Face fields on the tree (MAC velocities, face accelerations, face gradients).
+//
+// Convention: a face field is D cell-indexed arrays; uf[d][c] is the value on the LOWER
+// face of cell c along d. The upper face of a leaf c is then uf[d][n] with n its +d
+// neighbour, whatever n is: an active cell, a halo cell (the fine face at a jump to a
+// coarser region) or a ghost (the wall face). So every face of every leaf has one slot.
+//
+// Which faces are computed: the fine side of every face. A leaf computes its lower faces,
+// except where its lower neighbour is a parent (that face is coarse), and its upper faces
+// where the upper neighbour is a halo cell or a ghost (nobody else owns them). Coarse faces
+// (between a leaf and a parent of its level) then get the mean of the 2^(D-1) fine faces
+// covering them (restrict_faces): what crosses the fine faces crosses the coarse one, so
+// the divergence of a face field sums to the boundary flux exactly.
+#include <array>
+#include <span>
+#include <vector>
+
+#include "tree/tree.hpp"
+
+namespace capsflow::fluid {
+
+using tree::Index;
+
+template <int D>
+using FaceField = std::array<std::vector<double>, D>;
+
+template <int D>
+void resize(FaceField<D>& f, const tree::Tree<D>& t) {
+  for (auto& v : f) v.assign(t.num_cells(), 0.0);
+}
+
+// Calls f(d, lower, upper, h, level) for every fine face: lower and upper are the
+// same-level cells on either side along d, h their size; the face's slot is `upper`.
+// Parallel over leaves.
+template <int D, class F>
+void for_each_face(const tree::Tree<D>& t, F&& f) {
+  for (int l = 0; l <= t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    const double h = t.cell_size(l);
+    const Index n = lv.n_active, base = lv.base, active_end = lv.active_end(), halo_begin = lv.halo_begin();
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+    for (Index i = 0; i < n; ++i) {
+      if (!lv.leaf[i]) continue;
+      const Index c = base + i;
+      const Index* row = lv.face_row(c);
+      for (int d = 0; d < D; ++d) {
+        const Index lo = row[2 * d], hi = row[2 * d + 1];
+        if (!(lo < active_end && !lv.is_leaf(lo))) f(d, lo, c, h, lv);
+        if (hi >= halo_begin) f(d, c, hi, h, lv);
+      }
+    }
+  }
+}
+
+// Coarse faces (leaf against a parent of its level) get the mean of their fine faces.
+template <int D>
+void restrict_faces(const tree::Tree<D>& t, FaceField<D>& uf) {
+  constexpr int C = tree::kChildren<D>;
+  for (int l = 0; l < t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    const Index n = lv.n_active, base = lv.base;
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+    for (Index i = 0; i < n; ++i) {
+      if (lv.leaf[i] != tree::Level<D>::kLeafNextToFiner) continue;
+      const Index c = base + i;
+      const Index* row = lv.face_row(c);
+      for (int d = 0; d < D; ++d) {
+        const Index lo = row[2 * d], hi = row[2 * d + 1];
+        if (lo < lv.active_end() && !lv.is_leaf(lo)) {  // fine faces: c's halo children's lower faces
+          const Index first = lv.first_child[i];
+          double sum = 0.0;
+          for (int b = 0; b < C; ++b)
+            if (!tree::child_bit(b, d)) sum += uf[d][first + b];
+          uf[d][c] = sum / (C / 2);
+        }
+        if (hi < lv.active_end() && !lv.is_leaf(hi)) {  // fine faces: hi's children's lower faces
+          const Index first = lv.first_child[hi - base];
+          double sum = 0.0;
+          for (int b = 0; b < C; ++b)
+            if (!tree::child_bit(b, d)) sum += uf[d][first + b];
+          uf[d][hi] = sum / (C / 2);
+        }
+      }
+    }
+  }
+}
+
+// Calls f(c, l, h) for every leaf with its level and size. Parallel.
+template <int D, class F>
+void for_each_leaf_level(const tree::Tree<D>& t, F&& f) {
+  for (int l = 0; l <= t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    const double h = t.cell_size(l);
+    const Index n = lv.n_active, base = lv.base;
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+    for (Index i = 0; i < n; ++i)
+      if (lv.leaf[i]) f(base + i, l, h);
+  }
+}
+
+// Halo cells take their coarse leaf's value (for slopes: the coarse cell's slope).
+template <int D>
+void inject_halo(const tree::Tree<D>& t, std::span<double> v) {
+  constexpr int C = tree::kChildren<D>;
+  for (int l = 1; l <= t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    for (Index g = 0; g < lv.n_halo / C; ++g)
+      for (int b = 0; b < C; ++b) v[lv.halo_begin() + g * C + b] = v[lv.halo_parent[g]];
+  }
+}
+
+// Upper-face slot of leaf c of level l along d.
+template <int D>
+Index upper_face(const tree::Level<D>& lv, Index c, int d) {
+  return lv.face_row(c)[2 * d + 1];
+}
+
+// div(uf) at the leaves: sum_d (uf_up - uf_low) / h.
+template <int D>
+void divergence(const tree::Tree<D>& t, const FaceField<D>& uf, std::span<double> div) {
+  for_each_leaf_level<D>(t, [&](Index c, int l, double h) {
+    const tree::Level<D>& lv = t.level(l);
+    const Index* row = lv.face_row(c);
+    double s = 0.0;
+    for (int d = 0; d < D; ++d) s += uf[d][row[2 * d + 1]] - uf[d][c];
+    div[c] = s / h;
+  });
+}
+
+}  // namespace capsflow::fluid

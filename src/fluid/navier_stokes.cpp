@@ -1,0 +1,219 @@
+// The time step of the centered Navier-Stokes solver: stability, viscosity, acceleration,
+// projection (the advection stage is in ns_advection.cpp). See navier_stokes.hpp.
+#include "fluid/navier_stokes.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "fluid/multigrid/elliptic_operator.hpp"
+
+namespace capsflow::fluid {
+
+template <int D>
+void validate(const FlowOptions<D>& o) {
+  auto positive = [](double v, const char* key) {
+    if (!(v > 0.0) || !std::isfinite(v))
+      throw std::invalid_argument(fmt::format("{} = {}: must be > 0", key, v));
+  };
+  positive(o.Re, "fluid.Re");
+  positive(o.density, "fluid.density");
+  if (o.viscosity != -1.0) positive(o.viscosity, "fluid.viscosity");
+  positive(o.dt, "time.dt");
+  if (!(o.cfl >= 0.0)) throw std::invalid_argument(fmt::format("time.cfl = {}: must be >= 0", o.cfl));
+}
+
+template <int D>
+NavierStokes<D>::NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options)
+    : tree_(tree), options_(std::move(options)) {
+  validate(options_);
+  conditions_ = make_flow_conditions<D>(options_.boundaries, tree_.options());
+  mu_ = options_.viscosity == -1.0 ? 1.0 / options_.Re : options_.viscosity;
+  zero_gradient_ = tree::BoundaryConditions<D>::all(tree::BcKind::neumann);
+  static const char* kAxis[] = {"x", "y", "z"};
+  for (int d = 0; d < D; ++d)
+    u_[d] = tree_.add_field({.name = fmt::format("u.{}", kAxis[d]), .bc = conditions_.velocity[d]});
+  p_ = tree_.add_field({.name = "p", .bc = conditions_.pressure});
+  pf_ = tree_.add_field({.name = "pf", .bc = conditions_.pressure});
+  for (int d = 0; d < D; ++d)
+    g_[d] = tree_.add_field({.name = fmt::format("g.{}", kAxis[d]), .bc = zero_gradient_});
+  resize_scratch();
+}
+
+template <int D>
+void NavierStokes<D>::resize_scratch() {
+  const auto n = static_cast<std::size_t>(tree_.num_cells());
+  for (auto* f : {&uf_, &force_, &scratch_faces_}) resize<D>(*f, tree_);
+  for (auto& s : slope_) s.assign(n, 0.0);
+  div_.assign(n, 0.0);
+  rhs_.assign(n, 0.0);
+}
+
+template <int D>
+void NavierStokes<D>::sync_velocity() {
+  for (int d = 0; d < D; ++d) tree_.sync(u_[d]);
+}
+
+template <int D>
+double NavierStokes<D>::stable_dt() const {
+  if (options_.cfl == 0.0) return options_.dt;
+  double fastest = 0.0;  // max |uf| / h over the faces of the leaves
+  for (int l = 0; l <= tree_.depth(); ++l) {
+    const tree::Level<D>& lv = tree_.level(l);
+    const double inv_h = 1.0 / tree_.cell_size(l);
+#pragma omp parallel for schedule(static) reduction(max : fastest) if (lv.n_active > tree::kParallelMin)
+    for (Index i = 0; i < lv.n_active; ++i) {
+      if (!lv.leaf[i]) continue;
+      const Index c = lv.base + i;
+      const Index* row = lv.face_row(c);
+      for (int d = 0; d < D; ++d)
+        fastest = std::max({fastest, std::abs(uf_[d][c]) * inv_h, std::abs(uf_[d][row[2 * d + 1]]) * inv_h});
+    }
+  }
+  return fastest > 0.0 ? std::min(options_.dt, options_.cfl / fastest) : options_.dt;
+}
+
+template <int D>
+StepStats NavierStokes<D>::step() {
+  if (uf_[0].size() != static_cast<std::size_t>(tree_.num_cells())) resize_scratch();
+  StepStats stats;
+  const double dt = stable_dt();
+  if (!options_.stokes) prediction_and_advection(dt, stats);
+  viscosity(dt, stats);
+  acceleration(dt);
+  projection(dt, stats);
+  time_ += dt;
+  stats.t = time_;
+  stats.dt = dt;
+  return stats;
+}
+
+template <int D>
+void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
+  // u* + dt g carries the previous pressure gradient and acceleration through the
+  // implicit solve; they are taken out again after it (Basilisk's correction(+-dt)).
+  auto correct = [&](double sign) {
+    tree_.for_each_leaf([&](Index c) {
+      for (int d = 0; d < D; ++d) tree_.values(u_[d])[c] += sign * dt * tree_.values(g_[d])[c];
+    });
+  };
+  correct(1.0);
+  const double lambda = -options_.density / dt;
+  const double theta = options_.crank_nicolson ? 0.5 : 1.0;  // implicit share
+  for (int d = 0; d < D; ++d) {
+    std::span<double> u = tree_.values(u_[d]);
+    tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * u[c]; });
+    if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u*)
+      EllipticOperator<D> explicit_part(tree_, {(1.0 - theta) * mu_}, {}, conditions_.velocity[d]);
+      tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
+      explicit_part.apply_leaves(u, div_);
+      tree_.for_each_leaf([&](Index c) { rhs_[c] -= div_[c]; });
+    }
+    EllipticOperator<D, ConstantFaces, ConstantCells> op(tree_, {theta * mu_}, {lambda}, conditions_.velocity[d]);
+    const auto s = solve(op, u, rhs_, mg_, options_.viscous);
+    stats.viscous_cycles += s.cycles;
+    stats.converged = stats.converged && s.converged;
+  }
+  correct(-1.0);
+}
+
+template <int D>
+void NavierStokes<D>::face_average_of_velocity(FaceField<D>& uf) {
+  sync_velocity();
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>&) {
+    const std::span<const double> u = tree_.values(u_[d]);
+    uf[d][hi] = 0.5 * (u[lo] + u[hi]);
+  });
+}
+
+template <int D>
+void NavierStokes<D>::acceleration(double dt) {
+  for (auto& f : force_) std::fill(f.begin(), f.end(), 0.0);
+  if (face_force_) face_force_(tree_, force_);
+  face_average_of_velocity(uf_);
+  const double inv_rho = 1.0 / options_.density;
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
+    // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
+    // wall carries the normal force: no acceleration there, so the face keeps its
+    // prescribed velocity and the homogeneous Neumann pressure balances the rest exactly.
+    const Index ghost = std::max(lo, hi);
+    if (ghost >= lv.ghost_begin() &&
+        conditions_.pressure.side[lv.ghost_side[ghost - lv.ghost_begin()]].kind == tree::BcKind::neumann) {
+      force_[d][hi] = 0.0;
+      return;
+    }
+    uf_[d][hi] += dt * inv_rho * force_[d][hi];
+  });
+  restrict_faces<D>(tree_, uf_);
+}
+
+template <int D>
+int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt,
+                             bool& converged) {
+  divergence<D>(tree_, uf, div_);
+  tree_.for_each_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
+  const double alpha = 1.0 / options_.density;
+  EllipticOperator<D> op(tree_, {alpha}, {}, conditions_.pressure);
+  std::span<double> pv = tree_.values(p);
+  const auto s = solve(op, pv, rhs_, mg_, opt);  // leaves p synced (quadratic halos)
+  converged = converged && s.converged;
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
+    uf[d][hi] -= dt * alpha * (pv[hi] - pv[lo]) / h;
+  });
+  restrict_faces<D>(tree_, uf);
+  return s.cycles;
+}
+
+template <int D>
+void NavierStokes<D>::projection(double dt, StepStats& stats) {
+  stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats.converged);
+  centred_gradient(dt);
+}
+
+template <int D>
+void NavierStokes<D>::centred_gradient(double dt) {
+  // g = cell mean of the face acceleration a - alpha grad p, so that u += dt g; a face
+  // force that is a discrete gradient cancels with the pressure exactly.
+  const std::span<const double> p = tree_.values(p_);
+  const double alpha = 1.0 / options_.density;
+  FaceField<D>& gf = scratch_faces_;
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
+    gf[d][hi] = alpha * (force_[d][hi] - (p[hi] - p[lo]) / h);
+  });
+  restrict_faces<D>(tree_, gf);
+  for_each_leaf_level<D>(tree_, [&](Index c, int l, double) {
+    const Index* row = tree_.level(l).face_row(c);
+    for (int d = 0; d < D; ++d) {
+      const double g = 0.5 * (gf[d][c] + gf[d][row[2 * d + 1]]);
+      tree_.values(g_[d])[c] = g;
+      tree_.values(u_[d])[c] += dt * g;
+    }
+  });
+}
+
+template <int D>
+double NavierStokes<D>::max_divergence() {
+  divergence<D>(tree_, uf_, div_);
+  double worst = 0.0;
+  for (const Index c : tree_.leaves()) worst = std::max(worst, std::abs(div_[c]));
+  return worst;
+}
+
+template <int D>
+tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D> opt) {
+  for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
+  const auto counts = tree_.adapt(opt);
+  resize_scratch();
+  face_average_of_velocity(uf_);  // for the next CFL estimate
+  restrict_faces<D>(tree_, uf_);
+  return counts;
+}
+
+template void validate<2>(const FlowOptions<2>&);
+template void validate<3>(const FlowOptions<3>&);
+template class NavierStokes<2>;
+template class NavierStokes<3>;
+
+}  // namespace capsflow::fluid

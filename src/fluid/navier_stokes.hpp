@@ -1,0 +1,123 @@
+#pragma once
+// Incompressible Navier-Stokes and unsteady Stokes on the adaptive tree: Basilisk's
+// centered solver (Popinet 2003, 2009; src/navier-stokes/centered.h), dimensionless with
+// rho = 1 and mu = 1/Re unless given:
+//   du/dt + (u.grad)u = (1/rho) (-grad p + div(mu grad u)) + a,   div u = 0.
+// Cell-centred velocity u and pressure p, face (MAC) velocity uf; one step is the sequence
+//   stability   dt = min(dt_max, cfl h / |uf|)                       (or fixed)
+//   advection   uf = BCG prediction of u at t + dt/2 on faces, projected with pf (dt/2);
+//               u -= dt div(u_face uf)                                (skipped for Stokes)
+//   viscosity   (rho/dt)(u - u*) = div(mu grad u), implicit (backward Euler, or
+//               Crank-Nicolson: the mean of div(mu grad) at u and u*), one Helmholtz
+//               solve per component (around it u +- dt g: the solve sees full momentum)
+//   acceleration uf = face average of u + dt a_face                    (a: body force / rho)
+//   projection  div(alpha grad p) = div(uf)/dt, alpha = 1/rho; uf -= dt alpha grad p;
+//               g = centred mean of (a - alpha grad p) on faces;  u += dt g
+// A face body force that is a discrete gradient is balanced exactly by the pressure.
+#include <array>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "fluid/faces.hpp"
+#include "fluid/flow_boundary.hpp"
+#include "fluid/multigrid/multigrid.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::fluid {
+
+template <int D>
+struct FlowOptions {
+  double Re = 1.0;
+  bool stokes = false;  // drop (u.grad)u: unsteady Stokes
+  double density = 1.0;
+  double viscosity = -1.0;  // mu; -1: 1/Re
+  double dt = 1e-3;         // the step when cfl == 0, else the largest step
+  double cfl = 0.0;         // 0: fixed dt
+  bool limited_slopes = false;  // minmod slopes in the advection (else central, 2nd order)
+  // Viscosity by Crank-Nicolson (second order in time) instead of backward Euler (first
+  // order, L-stable: Basilisk's choice and the default).
+  bool crank_nicolson = false;
+  std::array<SideFlow<D>, 2 * D> boundaries{};
+  MultigridOptions projection{.tolerance = 1e-3};
+  MultigridOptions viscous{.tolerance = 1e-3};
+};
+
+// Throws std::invalid_argument naming the key for a non-positive Re, viscosity or density,
+// a negative CFL or a non-positive dt.
+template <int D>
+void validate(const FlowOptions<D>& o);
+
+struct [[nodiscard]] StepStats {
+  double t = 0.0;   // after the step
+  double dt = 0.0;
+  int projection_cycles = 0;
+  int prediction_cycles = 0;
+  int viscous_cycles = 0;
+  bool converged = true;  // every solve reached its tolerance
+  int cycles() const { return projection_cycles + prediction_cycles + viscous_cycles; }
+};
+
+template <int D>
+class NavierStokes {
+ public:
+  NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options);
+
+  tree::Tree<D>& tree() { return tree_; }
+  const FlowOptions<D>& options() const { return options_; }
+  const FlowConditions<D>& conditions() const { return conditions_; }
+  double time() const { return time_; }
+  void set_time(double t) { time_ = t; }
+
+  tree::FieldId velocity(int d) const { return u_[d]; }
+  tree::FieldId pressure() const { return p_; }
+  std::span<double> u(int d) { return tree_.values(u_[d]); }
+  std::span<double> p() { return tree_.values(p_); }
+  const FaceField<D>& face_velocity() const { return uf_; }
+
+  // Body force per unit volume on faces, filled by the caller before each step's
+  // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.
+  using FaceForce = std::function<void(const tree::Tree<D>&, FaceField<D>& force)>;
+  void set_face_force(FaceForce f) { face_force_ = std::move(f); }
+
+  StepStats step();
+  // Adapts the tree (velocity wavelets at `tolerance`, plus the options' forced levels),
+  // carrying every field; returns the tree's counts.
+  tree::AdaptCounts adapt(double tolerance, tree::AdaptOptions<D> options);
+
+  // The stages, public so tests can drive them one by one.
+  double stable_dt() const;
+  void prediction_and_advection(double dt, StepStats& stats);
+  void viscosity(double dt, StepStats& stats);
+  void acceleration(double dt);
+  void projection(double dt, StepStats& stats);
+
+  // max |div uf| over the leaves after the last projection.
+  double max_divergence();
+
+ private:
+  void resize_scratch();
+  void sync_velocity();
+  int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, bool& converged);
+  void face_average_of_velocity(FaceField<D>& uf);
+  void centred_gradient(double dt);
+
+  tree::Tree<D>& tree_;
+  FlowOptions<D> options_;
+  FlowConditions<D> conditions_;
+  tree::BoundaryConditions<D> zero_gradient_;
+  double time_ = 0.0;
+  double mu_ = 1.0;
+  std::array<tree::FieldId, D> u_{}, g_{};
+  tree::FieldId p_ = 0, pf_ = 0;
+  FaceField<D> uf_, force_, scratch_faces_;
+  std::array<std::vector<double>, D> slope_;  // du_c/dx_d for the component being advected
+  std::vector<double> div_, rhs_;
+  FaceForce face_force_;
+  MultigridWorkspace mg_;
+};
+
+extern template class NavierStokes<2>;
+extern template class NavierStokes<3>;
+
+}  // namespace capsflow::fluid
