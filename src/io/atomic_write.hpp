@@ -1,0 +1,24 @@
+#pragma once
+// Every file capsflow writes goes through atomic_write: the content is written to a
+// temporary name in the target's directory and renamed over the target only once the
+// writer has returned. rename(2) within one file system is atomic, so a run killed at any
+// moment leaves either the previous complete file or the new complete file, never a
+// truncated one. (No fsync: the failure we guard against is a killed process, not a power
+// cut, and syncing every snapshot would cost more than it saves.)
+#include <filesystem>
+#include <functional>
+#include <string_view>
+
+namespace capsflow::io {
+
+// Calls write(temporary_path); on success renames the temporary file to `target`. If the
+// writer throws, the temporary file is removed and the exception propagates; the target is
+// left untouched. The target's directory must exist. Throws std::runtime_error naming the
+// file when the rename fails or the writer returned without creating the file.
+void atomic_write(const std::filesystem::path& target,
+                  const std::function<void(const std::filesystem::path& temporary)>& write);
+
+// atomic_write of a text (or any byte string).
+void atomic_write_text(const std::filesystem::path& target, std::string_view content);
+
+}  // namespace capsflow::io

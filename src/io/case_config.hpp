@@ -1,0 +1,153 @@
+#pragma once
+// A run, as a case file describes it: plain structs with the documented defaults
+// (docs/case-file.md lists every key, its default and its unit). Strings of the file
+// become the enums below once, at parse time; nothing downstream compares strings.
+//
+// Vectors are std::array<.., 3> whatever the dimension: a 2D case reads and writes only
+// the first two entries and leaves the third at its default, so one struct serves both.
+// Boundary sides are numbered like the tree's: 2d for the low side of direction d, 2d+1
+// for the high side (x_lo, x_hi, y_lo, y_hi, z_lo, z_hi).
+#include <array>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "io/errors.hpp"
+#include "tree/tree_options.hpp"
+
+namespace capsflow::io {
+
+enum class BoundaryType : unsigned char { wall, moving_wall, inflow, outflow, periodic };
+enum class InflowProfile : unsigned char { uniform, square_duct, parabolic };
+enum class MembraneLaw : unsigned char { skalak, neo_hookean };
+enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
+enum class KernelType : unsigned char { cosine, hat, peskin4 };
+
+// The spelling of each enum value in a case file.
+[[nodiscard]] std::string_view to_string(BoundaryType v);
+[[nodiscard]] std::string_view to_string(InflowProfile v);
+[[nodiscard]] std::string_view to_string(MembraneLaw v);
+[[nodiscard]] std::string_view to_string(InitialShape v);
+[[nodiscard]] std::string_view to_string(KernelType v);
+
+struct DomainConfig {
+  std::array<int, 3> roots{1, 1, 1};     // root cubes per direction
+  double root_size = 1.0;                // side of a root cube (units of l)
+  std::array<double, 3> origin{};        // lower corner of the brick
+  std::array<bool, 3> periodic{};        // periodic directions
+  bool operator==(const DomainConfig&) const = default;
+};
+
+struct BoundaryConfig {
+  BoundaryType type = BoundaryType::wall;
+  std::array<double, 3> velocity{};                 // moving_wall: wall velocity (tangential)
+  InflowProfile profile = InflowProfile::uniform;   // inflow
+  double mean_velocity = 1.0;                       // inflow: mean normal velocity into the domain
+  bool operator==(const BoundaryConfig&) const = default;
+};
+
+struct MultigridConfig {
+  double tolerance = 1e-3;  // residual (max norm) that ends the cycles
+  int max_cycles = 50;
+  bool operator==(const MultigridConfig&) const = default;
+};
+
+struct FluidConfig {
+  double Re = 1.0;              // Reynolds number rho V l / mu
+  bool stokes = false;          // true: drop the advection term
+  double density_ratio = 1.0;   // inside / outside capsules
+  double viscosity_ratio = 1.0; // inside / outside capsules
+  std::array<BoundaryConfig, 6> boundary{};
+  MultigridConfig multigrid{};
+  bool operator==(const FluidConfig&) const = default;
+};
+
+struct AdaptConfig {
+  bool enabled = true;               // false: uniform grid at max_level
+  int min_level = 2;
+  int max_level = 6;                 // also the tree's deepest level
+  double velocity_tolerance = 1e-2;  // wavelet tolerance on each velocity component
+  int wall_level = 0;                // level forced along non-periodic walls (0: off)
+  int membrane_band = 4;             // cells of max_level forced around membrane nodes
+  int interval = 1;                  // steps between adaptations
+  bool operator==(const AdaptConfig&) const = default;
+};
+
+struct CapsuleConfig {
+  MembraneLaw law = MembraneLaw::skalak;
+  double Ca = 0.1;                          // capillary number mu V / G_s
+  double C = 1.0;                           // Skalak area-dilatation parameter
+  int nodes = 2562;                         // icosphere nodes: 642, 2562, 10242, 40962
+  int element_order = 1;                    // 1: P1 triangles, 2: P2 (6-node) triangles
+  double radius = 1.0;                      // stress-free sphere radius a
+  std::array<double, 3> centre{};
+  InitialShape shape = InitialShape::sphere;
+  std::array<double, 3> axes_factors{1.0, 1.0, 1.0};  // ellipsoid semi-axes / radius
+  double inflation = 1.0;                   // inflated: initial radius / radius
+  KernelType spread_kernel = KernelType::cosine;
+  KernelType interp_kernel = KernelType::hat;
+  bool operator==(const CapsuleConfig&) const = default;
+};
+
+struct TimeConfig {
+  double dt = 1e-3;     // time step (fixed), or the first step when cfl > 0
+  double t_end = 1.0;
+  double cfl = 0.0;     // 0: fixed dt; > 0: dt = cfl h_min / |u|_max, capped by dt_max
+  double dt_max = 0.0;  // cap of the adaptive dt (0: dt)
+  bool operator==(const TimeConfig&) const = default;
+};
+
+struct OutputConfig {
+  int interval = 100;              // steps between snapshots (.vtu)
+  int diagnostics_interval = 1;    // steps between rows of diagnostics.csv
+  bool vtu = true;                 // write .vtu snapshots and series.pvd
+  bool checkpoint = false;         // write HDF5 checkpoints
+  int checkpoint_interval = 0;     // steps between checkpoints (0: only at the end)
+  std::string directory;           // default out/<name>
+  bool operator==(const OutputConfig&) const = default;
+};
+
+struct CaseConfig {
+  std::string name;  // default: the case file's stem
+  int dimension = 3;
+  DomainConfig domain{};
+  FluidConfig fluid{};
+  AdaptConfig adapt{};
+  std::vector<CapsuleConfig> capsules;  // [[capsule]] tables
+  TimeConfig time{};
+  OutputConfig output{};
+  bool operator==(const CaseConfig&) const = default;
+};
+
+// Reads a case file, applies `overrides` ("key=value", dotted keys, value in TOML syntax,
+// e.g. "fluid.Re=10", "capsule[0].radius=0.8", "domain.roots=[4,1,1]"; a bare word is a
+// string), fills defaults and validates everything. Throws CaseError, one line naming the
+// file, the key and the reason.
+[[nodiscard]] CaseConfig parse_case(const std::filesystem::path& path,
+                                    std::span<const std::string> overrides = {});
+
+// The same from text; `source` names it in messages and gives the default name (its stem).
+[[nodiscard]] CaseConfig parse_case_text(std::string_view text, std::string_view source,
+                                         std::span<const std::string> overrides = {});
+
+// The value checks of parse_case, for a config built or changed in code. Throws CaseError
+// naming `source` and the dotted key.
+void validate_case(const CaseConfig& config, std::string_view source);
+
+// The case as TOML with every key written out (defaults included): parse_case_text of the
+// result gives back `config`.
+[[nodiscard]] std::string to_toml(const CaseConfig& config);
+
+// The deepest max_level a tree on these roots allows (the Morton key limit).
+[[nodiscard]] int max_tree_level(const CaseConfig& config);
+
+// The forest the case describes (roots, size, origin, periodicity, max_level).
+template <int D>
+[[nodiscard]] tree::TreeOptions<D> tree_options(const CaseConfig& config);
+
+extern template tree::TreeOptions<2> tree_options<2>(const CaseConfig&);
+extern template tree::TreeOptions<3> tree_options<3>(const CaseConfig&);
+
+}  // namespace capsflow::io

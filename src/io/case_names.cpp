@@ -1,0 +1,11 @@
+#include "io/case_names.hpp"
+
+namespace capsflow::io {
+
+std::string_view to_string(BoundaryType v) { return detail::name_of(detail::kBoundaryTypes, v); }
+std::string_view to_string(InflowProfile v) { return detail::name_of(detail::kInflowProfiles, v); }
+std::string_view to_string(MembraneLaw v) { return detail::name_of(detail::kMembraneLaws, v); }
+std::string_view to_string(InitialShape v) { return detail::name_of(detail::kInitialShapes, v); }
+std::string_view to_string(KernelType v) { return detail::name_of(detail::kKernelTypes, v); }
+
+}  // namespace capsflow::io

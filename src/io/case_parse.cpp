@@ -1,0 +1,197 @@
+// Case file -> CaseConfig. Reading is strict and section by section: each section asks for
+// every key it knows (TableReader), reports the first unknown one, and only then looks at
+// its sub-tables, so a misspelt section name is reported as such rather than as a missing
+// boundary condition further down. Value ranges are checked afterwards by validate_case.
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "io/case_config.hpp"
+#include "io/case_overrides.hpp"
+#include "io/case_validate.hpp"
+#include "io/toml_reader.hpp"
+
+namespace capsflow::io {
+
+namespace {
+
+using detail::CaseSource;
+using detail::TableReader;
+
+void parse_domain(TableReader r, int dim, DomainConfig& d) {
+  r.read("roots", d.roots, dim);
+  r.read("root_size", d.root_size);
+  r.read("origin", d.origin, dim);
+  r.read("periodic", d.periodic, dim);
+  r.finish();
+}
+
+void parse_side(TableReader r, int dim, BoundaryConfig& b) {
+  if (!r.read("type", b.type, detail::kBoundaryTypes))
+    r.missing("type", "wall, moving_wall, inflow, outflow or periodic");
+  // Keys of another type are reported as such, not as unknown keys.
+  auto only_for = [&](std::string_view key, BoundaryType owner) {
+    if (b.type != owner && r.has(key))
+      r.source().fail(r.key_path(key), detail::toml_repr(*r.node(key)),
+                      fmt::format("only used with type = \"{}\" (this side is \"{}\")",
+                                  to_string(owner), to_string(b.type)));
+  };
+  only_for("velocity", BoundaryType::moving_wall);
+  only_for("profile", BoundaryType::inflow);
+  only_for("mean_velocity", BoundaryType::inflow);
+  if (b.type == BoundaryType::moving_wall && !r.read("velocity", b.velocity, dim))
+    r.missing("velocity", "a moving wall needs its velocity");
+  if (b.type == BoundaryType::inflow) {
+    r.read("profile", b.profile, detail::kInflowProfiles);
+    r.read("mean_velocity", b.mean_velocity);
+  }
+  r.finish();
+}
+
+void parse_boundary(TableReader r, const DomainConfig& domain, int dim, FluidConfig& f) {
+  if (dim == 2)
+    for (const std::string_view z : {"z_lo", "z_hi"})
+      if (r.has(z)) r.source().fail(r.key_path(z), "there is no z side in a 2D case (dimension = 2)");
+  for (int s = 0; s < 2 * dim; ++s) {
+    const std::string_view name = detail::kSideNames[s];
+    const int d = s / 2;
+    if (const toml::table* t = r.table(name)) {
+      parse_side(TableReader(*t, r.key_path(name), r.source()), dim, f.boundary[s]);
+    } else if (domain.periodic[d]) {
+      f.boundary[s] = {.type = BoundaryType::periodic};
+    } else {
+      r.missing(name, fmt::format("{} is not periodic, so this side needs a boundary condition, "
+                                  "e.g. {} = {{ type = \"wall\" }}",
+                                  detail::kAxisNames[d], name));
+    }
+  }
+  r.finish();
+}
+
+void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig& f) {
+  r.read("Re", f.Re);
+  r.read("stokes", f.stokes);
+  r.read("density_ratio", f.density_ratio);
+  r.read("viscosity_ratio", f.viscosity_ratio);
+  const toml::table* mg = r.table("multigrid");
+  const toml::table* bc = r.table("boundary");
+  r.finish();
+  if (mg) {
+    TableReader m(*mg, r.key_path("multigrid"), r.source());
+    m.read("tolerance", f.multigrid.tolerance);
+    m.read("max_cycles", f.multigrid.max_cycles);
+    m.finish();
+  }
+  const toml::table empty;
+  parse_boundary(TableReader(bc ? *bc : empty, r.key_path("boundary"), r.source()), domain, dim, f);
+}
+
+void parse_adapt(TableReader r, AdaptConfig& a) {
+  r.read("enabled", a.enabled);
+  r.read("min_level", a.min_level);
+  r.read("max_level", a.max_level);
+  r.read("velocity_tolerance", a.velocity_tolerance);
+  r.read("wall_level", a.wall_level);
+  r.read("membrane_band", a.membrane_band);
+  r.read("interval", a.interval);
+  r.finish();
+}
+
+CapsuleConfig parse_capsule(TableReader r) {
+  CapsuleConfig c;
+  r.read("law", c.law, detail::kMembraneLaws);
+  r.read("Ca", c.Ca);
+  r.read("C", c.C);
+  r.read("nodes", c.nodes);
+  r.read("element_order", c.element_order);
+  if (!r.read("radius", c.radius)) r.missing("radius", "the capsule's stress-free radius");
+  if (!r.read("centre", c.centre, 3)) r.missing("centre", "the capsule's centre, [x, y, z]");
+  r.read("shape", c.shape, detail::kInitialShapes);
+  r.read("axes_factors", c.axes_factors, 3);
+  r.read("inflation", c.inflation);
+  r.read("spread_kernel", c.spread_kernel, detail::kKernelTypes);
+  r.read("interp_kernel", c.interp_kernel, detail::kKernelTypes);
+  r.finish();
+  return c;
+}
+
+void parse_time(TableReader r, TimeConfig& t) {
+  r.read("dt", t.dt);
+  r.read("t_end", t.t_end);
+  r.read("cfl", t.cfl);
+  r.read("dt_max", t.dt_max);
+  r.finish();
+}
+
+void parse_output(TableReader r, OutputConfig& o) {
+  r.read("interval", o.interval);
+  r.read("diagnostics_interval", o.diagnostics_interval);
+  r.read("vtu", o.vtu);
+  r.read("checkpoint", o.checkpoint);
+  r.read("checkpoint_interval", o.checkpoint_interval);
+  r.read("directory", o.directory);
+  r.finish();
+}
+
+CaseConfig parse_root(const toml::table& root, CaseSource& source) {
+  CaseConfig c;
+  TableReader r(root, "", source);
+  if (!r.read("name", c.name)) c.name = std::filesystem::path(source.name).stem().string();
+  if (r.read("dimension", c.dimension) && c.dimension != 2 && c.dimension != 3)
+    source.fail("dimension", fmt::format("{}", c.dimension), "must be 2 or 3");
+  const toml::table* domain = r.table("domain");
+  const toml::table* fluid = r.table("fluid");
+  const toml::table* adapt = r.table("adapt");
+  const toml::array* capsules = r.array_of_tables("capsule");
+  const toml::table* time = r.table("time");
+  const toml::table* output = r.table("output");
+  r.finish();
+
+  const toml::table empty;
+  auto section = [&](const toml::table* t, std::string_view name) {
+    return TableReader(t ? *t : empty, std::string(name), source);
+  };
+  parse_domain(section(domain, "domain"), c.dimension, c.domain);
+  parse_fluid(section(fluid, "fluid"), c.domain, c.dimension, c.fluid);
+  parse_adapt(section(adapt, "adapt"), c.adapt);
+  if (capsules)
+    for (std::size_t i = 0; i < capsules->size(); ++i)
+      c.capsules.push_back(parse_capsule(
+          TableReader(*capsules->get(i)->as_table(), fmt::format("capsule[{}]", i), source)));
+  parse_time(section(time, "time"), c.time);
+  parse_output(section(output, "output"), c.output);
+  if (c.output.directory.empty()) c.output.directory = "out/" + c.name;
+  return c;
+}
+
+}  // namespace
+
+CaseConfig parse_case_text(std::string_view text, std::string_view source_name,
+                           std::span<const std::string> overrides) {
+  CaseSource source{.name = std::string(source_name)};
+  toml::table root;
+  try {
+    root = toml::parse(text, source_name);
+  } catch (const toml::parse_error& e) {
+    source.fail_file(fmt::format("line {}, column {}: syntax error: {}", e.source().begin.line,
+                                 e.source().begin.column, e.description()));
+  }
+  detail::apply_overrides(root, overrides, source);
+  CaseConfig config = parse_root(root, source);
+  detail::validate_case(config, source);
+  return config;
+}
+
+CaseConfig parse_case(const std::filesystem::path& path, std::span<const std::string> overrides) {
+  const CaseSource source{.name = path.string()};
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) source.fail_file("cannot read the case file: it is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) source.fail_file(fmt::format("cannot read the case file: {}", std::strerror(errno)));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_case_text(text.str(), path.string(), overrides);
+}
+
+}  // namespace capsflow::io

@@ -1,0 +1,197 @@
+// The value rules of a case file (docs/case-file.md, "Rules"). Each failure names the
+// dotted key, its value and the rule, in one line.
+#include "io/case_validate.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "io/case_names.hpp"
+
+namespace capsflow::io {
+
+namespace detail {
+
+namespace {
+
+std::string vector_repr(const std::array<double, 3>& v, int n) {
+  std::string s = "[";
+  for (int i = 0; i < n; ++i) s += (i ? ", " : "") + toml_number(v[i]);
+  return s + "]";
+}
+
+class Checker {
+ public:
+  explicit Checker(const CaseSource& source) : source_(source) {}
+
+  void positive(const std::string& key, double v) const {
+    if (!(v > 0.0) || !std::isfinite(v)) source_.fail(key, toml_number(v), "must be > 0");
+  }
+  void non_negative(const std::string& key, double v) const {
+    if (!(v >= 0.0) || !std::isfinite(v)) source_.fail(key, toml_number(v), "must be >= 0");
+  }
+  void finite(const std::string& key, double v) const {
+    if (!std::isfinite(v)) source_.fail(key, toml_number(v), "must be finite");
+  }
+  void at_least(const std::string& key, int v, int min) const {
+    if (v < min) source_.fail(key, fmt::format("{}", v), fmt::format("must be >= {}", min));
+  }
+  [[noreturn]] void fail(const std::string& key, const std::string& value, const std::string& why) const {
+    source_.fail(key, value, why);
+  }
+  [[noreturn]] void fail(const std::string& key, const std::string& why) const { source_.fail(key, why); }
+
+ private:
+  const CaseSource& source_;
+};
+
+void check_domain(const CaseConfig& c, const Checker& ck) {
+  for (int d = 0; d < c.dimension; ++d) ck.at_least(fmt::format("domain.roots[{}]", d), c.domain.roots[d], 1);
+  ck.positive("domain.root_size", c.domain.root_size);
+  for (int d = 0; d < c.dimension; ++d) ck.finite(fmt::format("domain.origin[{}]", d), c.domain.origin[d]);
+}
+
+// Periodicity is a property of a direction: both sides periodic, and only when
+// domain.periodic says so; non-periodic sides carry a physical condition.
+void check_boundary(const CaseConfig& c, const Checker& ck) {
+  const int dim = c.dimension;
+  for (int s = 0; s < 2 * dim; ++s) {
+    const int d = s / 2;
+    const BoundaryConfig& b = c.fluid.boundary[s];
+    const BoundaryConfig& facing = c.fluid.boundary[s ^ 1];
+    const std::string key = fmt::format("fluid.boundary.{}", kSideNames[s]);
+    const std::string type = toml_string(to_string(b.type));
+    if (c.domain.periodic[d] && b.type != BoundaryType::periodic)
+      ck.fail(key + ".type", type,
+              fmt::format("{} is periodic (domain.periodic), so this side must be \"periodic\" or left out",
+                          kAxisNames[d]));
+    if (!c.domain.periodic[d] && b.type == BoundaryType::periodic) {
+      if (facing.type != BoundaryType::periodic)
+        ck.fail(key + ".type", type,
+                fmt::format("a periodic side cannot face a non-periodic one ({} is \"{}\")",
+                            kSideNames[s ^ 1], to_string(facing.type)));
+      ck.fail(key + ".type", type,
+              fmt::format("domain.periodic is false along {}; set it to true for a periodic direction",
+                          kAxisNames[d]));
+    }
+    if (b.type == BoundaryType::moving_wall) {
+      for (int i = 0; i < dim; ++i) ck.finite(fmt::format("{}.velocity[{}]", key, i), b.velocity[i]);
+      if (b.velocity[d] != 0.0)
+        ck.fail(key + ".velocity", vector_repr(b.velocity, dim),
+                fmt::format("the normal component ({}) must be 0: a wall slides along itself",
+                            kAxisNames[d]));
+    }
+    if (b.type == BoundaryType::inflow) {
+      ck.positive(key + ".mean_velocity", b.mean_velocity);
+      if (b.profile == InflowProfile::square_duct && dim != 3)
+        ck.fail(key + ".profile", toml_string(to_string(b.profile)),
+                "the square-duct profile needs dimension = 3 (use \"parabolic\" in 2D)");
+    }
+  }
+}
+
+void check_fluid(const CaseConfig& c, const Checker& ck) {
+  ck.positive("fluid.Re", c.fluid.Re);
+  ck.positive("fluid.density_ratio", c.fluid.density_ratio);
+  ck.positive("fluid.viscosity_ratio", c.fluid.viscosity_ratio);
+  ck.positive("fluid.multigrid.tolerance", c.fluid.multigrid.tolerance);
+  ck.at_least("fluid.multigrid.max_cycles", c.fluid.multigrid.max_cycles, 1);
+  check_boundary(c, ck);
+}
+
+void check_adapt(const CaseConfig& c, const Checker& ck) {
+  const AdaptConfig& a = c.adapt;
+  ck.at_least("adapt.min_level", a.min_level, 0);
+  if (a.max_level < a.min_level)
+    ck.fail("adapt.max_level", fmt::format("{}", a.max_level),
+            fmt::format("must be >= adapt.min_level ({})", a.min_level));
+  const int limit = max_tree_level(c);
+  if (a.max_level > limit)
+    ck.fail("adapt.max_level", fmt::format("{}", a.max_level),
+            fmt::format("above {}, the deepest level the tree allows on these roots (Morton key limit)",
+                        limit));
+  ck.positive("adapt.velocity_tolerance", a.velocity_tolerance);
+  ck.at_least("adapt.wall_level", a.wall_level, 0);
+  if (a.wall_level > a.max_level)
+    ck.fail("adapt.wall_level", fmt::format("{}", a.wall_level),
+            fmt::format("must be <= adapt.max_level ({})", a.max_level));
+  ck.at_least("adapt.membrane_band", a.membrane_band, 0);
+  ck.at_least("adapt.interval", a.interval, 1);
+}
+
+// The largest semi-axis of the initial shape: what must fit between the walls.
+double largest_semi_axis(const CapsuleConfig& cap) {
+  switch (cap.shape) {
+    case InitialShape::ellipsoid:
+      return cap.radius * *std::max_element(cap.axes_factors.begin(), cap.axes_factors.end());
+    case InitialShape::inflated: return cap.radius * cap.inflation;
+    case InitialShape::sphere: break;
+  }
+  return cap.radius;
+}
+
+void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
+  const CapsuleConfig& cap = c.capsules[i];
+  const std::string key = fmt::format("capsule[{}]", i);
+  if (c.dimension != 3) ck.fail(key, "capsules need dimension = 3");
+  ck.positive(key + ".Ca", cap.Ca);
+  if (cap.law == MembraneLaw::skalak && !(cap.C > -0.5 && std::isfinite(cap.C)))
+    ck.fail(key + ".C", toml_number(cap.C), "must be > -0.5 (area modulus Gs (1 + 2C) > 0)");
+  constexpr std::array kNodes{642, 2562, 10242, 40962};
+  if (std::find(kNodes.begin(), kNodes.end(), cap.nodes) == kNodes.end())
+    ck.fail(key + ".nodes", fmt::format("{}", cap.nodes), "must be 642, 2562, 10242 or 40962 (icosphere)");
+  if (cap.element_order != 1 && cap.element_order != 2)
+    ck.fail(key + ".element_order", fmt::format("{}", cap.element_order), "must be 1 (P1) or 2 (P2)");
+  ck.positive(key + ".radius", cap.radius);
+  for (int d = 0; d < 3; ++d) {
+    ck.finite(fmt::format("{}.centre[{}]", key, d), cap.centre[d]);
+    ck.positive(fmt::format("{}.axes_factors[{}]", key, d), cap.axes_factors[d]);
+  }
+  ck.positive(key + ".inflation", cap.inflation);
+  const double semi = largest_semi_axis(cap);
+  for (int d = 0; d < 3; ++d) {
+    const double lo = c.domain.origin[d];
+    const double hi = lo + c.domain.roots[d] * c.domain.root_size;
+    if (cap.centre[d] - semi < lo || cap.centre[d] + semi > hi)
+      ck.fail(key + ".centre", vector_repr(cap.centre, 3),
+              fmt::format("the capsule does not fit inside the domain: along {} its centre +- {} "
+                          "(largest initial semi-axis) leaves [{}, {}]",
+                          kAxisNames[d], semi, lo, hi));
+  }
+}
+
+void check_time(const CaseConfig& c, const Checker& ck) {
+  ck.positive("time.dt", c.time.dt);
+  ck.positive("time.t_end", c.time.t_end);
+  ck.non_negative("time.cfl", c.time.cfl);
+  ck.non_negative("time.dt_max", c.time.dt_max);
+}
+
+void check_output(const CaseConfig& c, const Checker& ck) {
+  ck.at_least("output.interval", c.output.interval, 1);
+  ck.at_least("output.diagnostics_interval", c.output.diagnostics_interval, 1);
+  ck.at_least("output.checkpoint_interval", c.output.checkpoint_interval, 0);
+  if (c.output.directory.empty()) ck.fail("output.directory", "\"\"", "must not be empty");
+}
+
+}  // namespace
+
+void validate_case(const CaseConfig& c, const CaseSource& source) {
+  const Checker ck(source);
+  if (c.name.empty()) ck.fail("name", "\"\"", "must not be empty");
+  if (c.dimension != 2 && c.dimension != 3)
+    ck.fail("dimension", fmt::format("{}", c.dimension), "must be 2 or 3");
+  check_domain(c, ck);
+  check_fluid(c, ck);
+  check_adapt(c, ck);
+  for (std::size_t i = 0; i < c.capsules.size(); ++i) check_capsule(c, i, ck);
+  check_time(c, ck);
+  check_output(c, ck);
+}
+
+}  // namespace detail
+
+void validate_case(const CaseConfig& config, std::string_view source) {
+  detail::validate_case(config, detail::CaseSource{.name = std::string(source)});
+}
+
+}  // namespace capsflow::io

@@ -1,0 +1,66 @@
+#pragma once
+// HDF5 checkpoints: everything a run needs to continue exactly where it stopped — the
+// tree's leaf set, the leaf values of every registered field, named extra arrays (the
+// membrane state) and the time-stepping scalars. The layout is in docs/checkpoint-format.md
+// and reads with h5dump.
+//
+// Restart protocol: the caller builds the tree from the case (roots only) and registers
+// the same fields (with their boundary conditions, which live in code, not in the file),
+// then read_checkpoint refines that tree until its leaves are the checkpoint's, restores the
+// leaf values bit for bit, and syncs each field (restriction, halo, ghosts) as adapt() does.
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "io/errors.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::io {
+
+struct CheckpointScalars {
+  double time = 0.0;
+  std::int64_t step = 0;
+  double dt = 0.0;
+  bool operator==(const CheckpointScalars&) const = default;
+};
+
+// A named array of doubles with its shape (row-major, last index fastest).
+struct ExtraArray {
+  std::string name;
+  std::vector<std::size_t> shape;
+  std::vector<double> values;
+  bool operator==(const ExtraArray&) const = default;
+};
+
+struct RestoredState {
+  CheckpointScalars scalars;
+  std::vector<ExtraArray> extras;  // in name order
+};
+
+// Writes atomically (temporary file, then rename). Throws std::invalid_argument for a field
+// or extra name that is empty, contains '/', or repeats, or an extra whose shape does not
+// match its values; std::runtime_error naming the file if HDF5 cannot write it.
+template <int D>
+void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tree,
+                      const CheckpointScalars& scalars, std::span<const ExtraArray> extras = {});
+
+// Restores `tree` (which must still be its bare roots, with the fields registered) from
+// the checkpoint. Throws CheckpointError, one line naming the file and what is wrong: not a
+// readable HDF5 file (missing, truncated, corrupt), not a capsflow checkpoint, a missing or
+// malformed dataset, another dimension, other roots / root size / origin / periodicity,
+// leaves deeper than the tree's max_level, other field names. Throws std::invalid_argument
+// if `tree` has been refined already.
+template <int D>
+[[nodiscard]] RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& tree);
+
+extern template void write_checkpoint<2>(const std::filesystem::path&, const tree::Tree<2>&,
+                                         const CheckpointScalars&, std::span<const ExtraArray>);
+extern template void write_checkpoint<3>(const std::filesystem::path&, const tree::Tree<3>&,
+                                         const CheckpointScalars&, std::span<const ExtraArray>);
+extern template RestoredState read_checkpoint<2>(const std::filesystem::path&, tree::Tree<2>&);
+extern template RestoredState read_checkpoint<3>(const std::filesystem::path&, tree::Tree<3>&);
+
+}  // namespace capsflow::io

@@ -1,0 +1,92 @@
+#pragma once
+// Thin RAII over the HDF5 C API for the checkpoint reader and writer (internal; includes
+// hdf5.h). Every failing call becomes an exception from `fail`, which names the file and
+// the object; HDF5's own error stack printing is silenced while a File is open.
+#include <hdf5.h>
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace capsflow::io::detail {
+
+inline constexpr char kCheckpointFormat[] = "capsflow checkpoint";
+inline constexpr int kCheckpointVersion = 1;
+
+class Handle {
+ public:
+  Handle() = default;
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Handle(Handle&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
+  Handle& operator=(Handle&& o) noexcept {
+    std::swap(id_, o.id_);
+    std::swap(close_, o.close_);
+    return *this;
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() {
+    if (id_ >= 0 && close_) close_(id_);
+  }
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  herr_t (*close_)(hid_t) = nullptr;
+};
+
+// Silences HDF5's automatic error printing for the lifetime of the object.
+class QuietErrors {
+ public:
+  QuietErrors() {
+    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+// A dataset read whole: its shape and its values converted to T by HDF5.
+template <class T>
+struct Array {
+  std::vector<hsize_t> shape;
+  std::vector<T> values;
+};
+
+// Reading and writing helpers. Failures throw CheckpointError ("<file>: <what>") when
+// reading, std::runtime_error when writing (a write failure is not the file's fault).
+class H5Io {
+ public:
+  enum class Mode { read, write };
+  H5Io(std::string file, Mode mode) : file_(std::move(file)), mode_(mode) {}
+
+  [[noreturn]] void fail(const std::string& what) const;
+
+  Handle group(hid_t loc, const std::string& name, bool create) const;
+  void write(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
+             const void* data) const;
+  void attribute(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
+                 const void* data) const;
+  void string_attribute(hid_t loc, const std::string& name, const std::string& value) const;
+
+  // `path` names the object in messages ("/tree/keys").
+  template <class T>
+  Array<T> read(hid_t loc, const std::string& name, hid_t type, const std::string& path) const;
+  template <class T>
+  Array<T> read_attribute(hid_t loc, const std::string& name, hid_t type, const std::string& path) const;
+  std::string read_string_attribute(hid_t loc, const std::string& name, const std::string& path) const;
+  // The names of a group's members, in name order.
+  std::vector<std::string> members(hid_t group, const std::string& path) const;
+
+ private:
+  std::string file_;
+  Mode mode_;
+};
+}  // namespace capsflow::io::detail

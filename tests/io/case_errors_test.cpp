@@ -1,0 +1,200 @@
+// Each kind of bad case gives a CaseError with one line naming the file, the key and the
+// reason.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "io/case_config.hpp"
+
+namespace capsflow::io {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+// A valid 3D channel case; each test appends or replaces a piece of it.
+constexpr std::string_view kBase = R"(dimension = 3
+[domain]
+roots = [4, 1, 1]
+root_size = 2.0
+origin = [-4, -1, -1]
+periodic = [true, false, false]
+[fluid.boundary]
+y_lo = { type = "wall" }
+y_hi = { type = "wall" }
+z_lo = { type = "wall" }
+z_hi = { type = "wall" }
+)";
+
+std::string replace(std::string text, std::string_view from, std::string_view to) {
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+// The message of the CaseError that parsing `text` throws (fails the test if none).
+std::string error_of(const std::string& text, std::span<const std::string> overrides = {}) {
+  try {
+    (void)parse_case_text(text, "case.toml", overrides);
+  } catch (const CaseError& e) {
+    EXPECT_THAT(std::string(e.what()), Not(HasSubstr("\n"))) << "one line";
+    EXPECT_THAT(std::string(e.what()), HasSubstr("case.toml: ")) << "names the file";
+    return e.what();
+  }
+  ADD_FAILURE() << "no CaseError for:\n" << text;
+  return {};
+}
+
+TEST(io_case_errors, TheBaseCaseIsValid) { EXPECT_NO_THROW((void)parse_case_text(std::string(kBase), "case.toml")); }
+
+TEST(io_case_errors, NegativeTimeStep) {
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ndt = -0.001\n"),
+              HasSubstr("case.toml: time.dt = -0.001: must be > 0"));
+}
+
+TEST(io_case_errors, MaxLevelBelowMinLevel) {
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmin_level = 5\nmax_level = 3\n"),
+              HasSubstr("adapt.max_level = 3: must be >= adapt.min_level (5)"));
+}
+
+TEST(io_case_errors, LevelAboveWhatTheTreeAllows) {
+  const std::string e = error_of(std::string(kBase) + "[adapt]\nmax_level = 40\n");
+  EXPECT_THAT(e, HasSubstr("adapt.max_level = 40: above 19, the deepest level the tree allows"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nwall_level = 9\n"),
+              HasSubstr("adapt.wall_level = 9: must be <= adapt.max_level (6)"));
+}
+
+TEST(io_case_errors, CapsuleThatDoesNotFitTheChannel) {
+  const std::string capsule = "[[capsule]]\nradius = 0.5\ncentre = [0, 0.2, 0]\nshape = \"ellipsoid\"\n"
+                              "axes_factors = [1, 1.7, 1]\n";
+  const std::string e = error_of(std::string(kBase) + capsule);
+  EXPECT_THAT(e, HasSubstr("capsule[0].centre = [0.0, 0.2, 0.0]"));
+  EXPECT_THAT(e, HasSubstr("does not fit inside the domain: along y its centre +- 0.85"));
+  // The same capsule as a sphere fits.
+  EXPECT_NO_THROW((void)parse_case_text(replace(std::string(kBase) + capsule, "\"ellipsoid\"", "\"sphere\""), "c"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.9\ncentre = [0, 0, 0]\nshape = \"inflated\"\n"
+                                            "inflation = 1.2\n"),
+              HasSubstr("does not fit inside the domain: along y its centre +- 1.08"));
+}
+
+TEST(io_case_errors, PeriodicSideFacingANonPeriodicOne) {
+  const std::string text = replace(std::string(kBase), "y_lo = { type = \"wall\" }", "y_lo = { type = \"periodic\" }");
+  EXPECT_THAT(error_of(text), HasSubstr("fluid.boundary.y_lo.type = \"periodic\": a periodic side cannot face "
+                                        "a non-periodic one (y_hi is \"wall\")"));
+  const std::string both = replace(text, "y_hi = { type = \"wall\" }", "y_hi = { type = \"periodic\" }");
+  EXPECT_THAT(error_of(both), HasSubstr("fluid.boundary.y_lo.type = \"periodic\": domain.periodic is false along y"));
+}
+
+TEST(io_case_errors, InflowOnAPeriodicSide) {
+  const std::string text = std::string(kBase) + "x_lo = { type = \"inflow\", profile = \"parabolic\" }\n";
+  EXPECT_THAT(error_of(text), HasSubstr("fluid.boundary.x_lo.type = \"inflow\": x is periodic (domain.periodic)"));
+  const std::string profile = std::string(kBase) + "x_lo = { type = \"periodic\", profile = \"parabolic\" }\n";
+  EXPECT_THAT(error_of(profile),
+              HasSubstr("fluid.boundary.x_lo.profile = \"parabolic\": only used with type = \"inflow\""));
+}
+
+TEST(io_case_errors, NegativeReViscosityOrCfl) {
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nRe = -1\n"), HasSubstr("fluid.Re = -1.0: must be > 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nviscosity_ratio = -2.5\n"),
+              HasSubstr("fluid.viscosity_ratio = -2.5: must be > 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncfl = -0.5\n"), HasSubstr("time.cfl = -0.5: must be >= 0"));
+}
+
+TEST(io_case_errors, MissingBoundaryCondition) {
+  const std::string text = replace(std::string(kBase), "y_hi = { type = \"wall\" }\n", "");
+  EXPECT_THAT(error_of(text), HasSubstr("case.toml: fluid.boundary.y_hi: missing (y is not periodic"));
+  const std::string no_type = replace(std::string(kBase), "y_hi = { type = \"wall\" }", "y_hi = { }");
+  EXPECT_THAT(error_of(no_type), HasSubstr("fluid.boundary.y_hi.type: missing"));
+  const std::string moving = replace(std::string(kBase), "y_hi = { type = \"wall\" }", "y_hi = { type = \"moving_wall\" }");
+  EXPECT_THAT(error_of(moving), HasSubstr("fluid.boundary.y_hi.velocity: missing"));
+}
+
+TEST(io_case_errors, MovingWallThatMovesThroughItself) {
+  const std::string text = replace(std::string(kBase), "y_hi = { type = \"wall\" }",
+                                   "y_hi = { type = \"moving_wall\", velocity = [1, 0.5, 0] }");
+  EXPECT_THAT(error_of(text), HasSubstr("fluid.boundary.y_hi.velocity = [1.0, 0.5, 0.0]: the normal component (y) must be 0"));
+}
+
+TEST(io_case_errors, MissingFile) {
+  try {
+    (void)parse_case("/nonexistent/dir/case.toml");
+    FAIL() << "no CaseError";
+  } catch (const CaseError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("/nonexistent/dir/case.toml: cannot read the case file"));
+  }
+}
+
+TEST(io_case_errors, SyntaxErrorGivesLineAndColumn) {
+  const std::string e = error_of("dimension = 3\n[domain]\nroots = [4, 1,\n");
+  EXPECT_THAT(e, HasSubstr("case.toml: line 3"));
+  EXPECT_THAT(e, HasSubstr("column"));
+  EXPECT_THAT(error_of("dimension = = 3\n"), HasSubstr("case.toml: line 1, column"));
+}
+
+TEST(io_case_errors, UnknownKeysAnywhere) {
+  EXPECT_THAT(error_of("colour = 1\n" + std::string(kBase)), HasSubstr("case.toml: colour: unknown key"));
+  EXPECT_THAT(error_of("[fluids]\nRe = 1\n"), HasSubstr("case.toml: fluids: unknown key (did you mean fluid?)"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nRey = 10\n"),
+              HasSubstr("fluid.Rey: unknown key (did you mean fluid.Re?)"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid.multigrid]\ncycles = 3\n"),
+              HasSubstr("fluid.multigrid.cycles: unknown key"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nradios = 1\n"),
+              HasSubstr("capsule[0].radios: unknown key (did you mean capsule[0].radius?)"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "y_lo = { type = \"wall\" }", "y_lo = { type = \"wall\", slip = true }")),
+              HasSubstr("fluid.boundary.y_lo.slip: unknown key"));
+  EXPECT_THAT(error_of(std::string(kBase) + "w_lo = { type = \"wall\" }\n"), HasSubstr("fluid.boundary.w_lo: unknown key"));
+}
+
+TEST(io_case_errors, WrongTypes) {
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nRe = \"ten\"\n"),
+              HasSubstr("fluid.Re = \"ten\": expected a number, got a string"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nenabled = 1\n"),
+              HasSubstr("adapt.enabled = 1: expected a boolean (true or false), got an integer"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmax_level = 6.5\n"),
+              HasSubstr("adapt.max_level = 6.5: expected an integer, got a float"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "roots = [4, 1, 1]", "roots = [4, 1]")),
+              HasSubstr("domain.roots = [4, 1]: expected 3 entries (one per direction), got 2"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "roots = [4, 1, 1]", "roots = [4, 1.5, 1]")),
+              HasSubstr("domain.roots = [4, 1.5, 1]: entry 1 is a float, expected an integer"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ndt = [1]\n"), HasSubstr("time.dt = [1]: expected a number, got an array"));
+  EXPECT_THAT(error_of("dimension = 3\ndomain = 4\n"), HasSubstr("domain = 4: expected a table, got an integer"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nlaw = \"hooke\"\n"),
+              HasSubstr("capsule[0].law = \"hooke\": expected one of \"skalak\", \"neo_hookean\""));
+}
+
+TEST(io_case_errors, OtherImpossibleValues) {
+  EXPECT_THAT(error_of("dimension = 4\n"), HasSubstr("case.toml: dimension = 4: must be 2 or 3"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "roots = [4, 1, 1]", "roots = [4, 0, 1]")),
+              HasSubstr("domain.roots[1] = 0: must be >= 1"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nnodes = 1000\n"),
+              HasSubstr("capsule[0].nodes = 1000: must be 642, 2562, 10242 or 40962"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nC = -0.7\n"),
+              HasSubstr("capsule[0].C = -0.7: must be > -0.5"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\ncentre = [0,0,0]\n"), HasSubstr("capsule[0].radius: missing"));
+  EXPECT_THAT(error_of("dimension = 2\n[fluid.boundary]\nx_lo = {type=\"wall\"}\nx_hi = {type=\"wall\"}\n"
+                       "y_lo = {type=\"wall\"}\ny_hi = {type=\"wall\"}\nz_lo = {type=\"wall\"}\n"),
+              HasSubstr("fluid.boundary.z_lo: there is no z side in a 2D case"));
+  EXPECT_THAT(error_of("dimension = 2\n[domain]\nperiodic = [true, true]\n[[capsule]]\nradius = 0.1\n"
+                       "centre = [0.5, 0.5, 0.5]\n"),
+              HasSubstr("capsule[0]: capsules need dimension = 3"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[output]\ninterval = 0\n"), HasSubstr("output.interval = 0: must be >= 1"));
+}
+
+TEST(io_case_errors, FileNameIsTheOneGiven) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "capsflow_io_case_errors";
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path file = dir / "bad.toml";
+  std::ofstream(file) << kBase << "[time]\ndt = 0\n";
+  try {
+    (void)parse_case(file);
+    FAIL() << "no CaseError";
+  } catch (const CaseError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() + ": time.dt = 0.0: must be > 0");
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace capsflow::io
