@@ -25,7 +25,7 @@ double duct_velocity(double y, double z, double a, double b) {
 
 double duct_flow_rate(double a, double b) {
   double sum = 0.0;
-  for (int i = 1; i <= 201; i += 2) sum += std::tanh(i * kPi * b / (2.0 * a)) / std::pow(double(i), 5);
+  for (int i = 1; i <= 4001; i += 2) sum += std::tanh(i * kPi * b / (2.0 * a)) / std::pow(double(i), 5);
   return 4.0 * b * a * a * a / 3.0 * (1.0 - 192.0 * a / (std::pow(kPi, 5) * b) * sum);
 }
 

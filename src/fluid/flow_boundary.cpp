@@ -67,7 +67,7 @@ std::function<double(const tree::Point<D>&)> inflow_speed(const SideFlow<D>& s, 
 
 template <int D>
 FlowConditions<D> make_flow_conditions(const std::array<SideFlow<D>, 2 * D>& sides,
-                                       const tree::TreeOptions<D>& o) {
+                                       const tree::TreeOptions<D>& o, const double* time) {
   FlowConditions<D> fc;
   for (int s = 0; s < 2 * D; ++s) {
     const SideFlow<D>& sf = sides[s];
@@ -100,6 +100,12 @@ FlowConditions<D> make_flow_conditions(const std::array<SideFlow<D>, 2 * D>& sid
         case SideKind::outflow:
           u = {tree::BcKind::neumann, 0.0, {}};
           break;
+        case SideKind::prescribed: {
+          if (!sf.prescribed) fail<D>(s, "a prescribed side needs a velocity function");
+          auto f = sf.prescribed;
+          u = {tree::BcKind::dirichlet, 0.0, [f, d, time](const tree::Point<D>& x) { return f(x, d, *time); }};
+          break;
+        }
         case SideKind::periodic:
           break;
       }
@@ -108,7 +114,9 @@ FlowConditions<D> make_flow_conditions(const std::array<SideFlow<D>, 2 * D>& sid
   return fc;
 }
 
-template FlowConditions<2> make_flow_conditions<2>(const std::array<SideFlow<2>, 4>&, const tree::TreeOptions<2>&);
-template FlowConditions<3> make_flow_conditions<3>(const std::array<SideFlow<3>, 6>&, const tree::TreeOptions<3>&);
+template FlowConditions<2> make_flow_conditions<2>(const std::array<SideFlow<2>, 4>&, const tree::TreeOptions<2>&,
+                                                   const double*);
+template FlowConditions<3> make_flow_conditions<3>(const std::array<SideFlow<3>, 6>&, const tree::TreeOptions<3>&,
+                                                   const double*);
 
 }  // namespace capsflow::fluid

@@ -7,9 +7,11 @@
 //   inflow       Dirichlet: profile along the normal, 0     Neumann 0
 //                tangential
 //   outflow      Neumann 0                                  Dirichlet 0
+//   prescribed   Dirichlet: a function of (x, component, t)  Neumann 0
 //   periodic     (wraps; the tree's side must be periodic)  (wraps)
 // The seed channel: walls on the inlet and the four lateral sides, outflow on the outlet.
 #include <array>
+#include <functional>
 #include <string>
 
 #include "tree/boundary.hpp"
@@ -17,7 +19,7 @@
 
 namespace capsflow::fluid {
 
-enum class SideKind { wall, moving_wall, inflow, outflow, periodic };
+enum class SideKind { wall, moving_wall, inflow, outflow, periodic, prescribed };
 enum class InflowProfile { uniform, parabolic, square_duct };
 
 template <int D>
@@ -26,6 +28,8 @@ struct SideFlow {
   std::array<double, D> velocity{};  // moving_wall: the wall velocity (tangential)
   InflowProfile profile = InflowProfile::uniform;
   double mean_velocity = 1.0;  // inflow: mean normal velocity entering the domain
+  // prescribed: velocity component `d` at x and time t (exact solutions, general inlets).
+  std::function<double(const tree::Point<D>&, int d, double t)> prescribed;
 };
 
 template <int D>
@@ -40,9 +44,10 @@ std::string side_name(int side);
 // Checks the sides against the tree (a periodic side must face a periodic one and the
 // tree's direction must be periodic; no inflow on a periodic side; a moving wall moves
 // tangentially; the square-duct profile is 3D) and builds the field conditions. Throws
-// std::invalid_argument naming the side and the reason.
+// std::invalid_argument naming the side and the reason. Time-dependent conditions read
+// the time at *time when they are evaluated.
 template <int D>
 FlowConditions<D> make_flow_conditions(const std::array<SideFlow<D>, 2 * D>& sides,
-                                       const tree::TreeOptions<D>& domain);
+                                       const tree::TreeOptions<D>& domain, const double* time);
 
 }  // namespace capsflow::fluid

@@ -29,7 +29,7 @@ template <int D>
 NavierStokes<D>::NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options)
     : tree_(tree), options_(std::move(options)) {
   validate(options_);
-  conditions_ = make_flow_conditions<D>(options_.boundaries, tree_.options());
+  conditions_ = make_flow_conditions<D>(options_.boundaries, tree_.options(), &boundary_time_);
   mu_ = options_.viscosity == -1.0 ? 1.0 / options_.Re : options_.viscosity;
   zero_gradient_ = tree::BoundaryConditions<D>::all(tree::BcKind::neumann);
   static const char* kAxis[] = {"x", "y", "z"};
@@ -47,6 +47,7 @@ void NavierStokes<D>::resize_scratch() {
   const auto n = static_cast<std::size_t>(tree_.num_cells());
   for (auto* f : {&uf_, &force_, &scratch_faces_}) resize<D>(*f, tree_);
   for (auto& s : slope_) s.assign(n, 0.0);
+  for (auto& s : source_) s.assign(n, 0.0);
   div_.assign(n, 0.0);
   rhs_.assign(n, 0.0);
 }
@@ -80,7 +81,10 @@ StepStats NavierStokes<D>::step() {
   if (uf_[0].size() != static_cast<std::size_t>(tree_.num_cells())) resize_scratch();
   StepStats stats;
   const double dt = stable_dt();
+  // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
+  boundary_time_ = time_;
   if (!options_.stokes) prediction_and_advection(dt, stats);
+  boundary_time_ = time_ + dt;
   viscosity(dt, stats);
   acceleration(dt);
   projection(dt, stats);
@@ -105,11 +109,14 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
   for (int d = 0; d < D; ++d) {
     std::span<double> u = tree_.values(u_[d]);
     tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * u[c]; });
-    if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u*)
+    if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u*), walls at t^n
+      const double t_new = boundary_time_;
+      boundary_time_ = time_;
       EllipticOperator<D> explicit_part(tree_, {(1.0 - theta) * mu_}, {}, conditions_.velocity[d]);
       tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
       explicit_part.apply_leaves(u, div_);
       tree_.for_each_leaf([&](Index c) { rhs_[c] -= div_[c]; });
+      boundary_time_ = t_new;
     }
     EllipticOperator<D, ConstantFaces, ConstantCells> op(tree_, {theta * mu_}, {lambda}, conditions_.velocity[d]);
     const auto s = solve(op, u, rhs_, mg_, options_.viscous);

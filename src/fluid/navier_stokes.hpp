@@ -107,11 +107,13 @@ class NavierStokes {
   FlowConditions<D> conditions_;
   tree::BoundaryConditions<D> zero_gradient_;
   double time_ = 0.0;
+  double boundary_time_ = 0.0;  // the time boundary conditions are evaluated at
   double mu_ = 1.0;
   std::array<tree::FieldId, D> u_{}, g_{};
   tree::FieldId p_ = 0, pf_ = 0;
   FaceField<D> uf_, force_, scratch_faces_;
   std::array<std::vector<double>, D> slope_;  // du_c/dx_d for the component being advected
+  std::array<std::vector<double>, D> source_;  // advection sources g + nu lap u
   std::vector<double> div_, rhs_;
   FaceForce face_force_;
   MultigridWorkspace mg_;

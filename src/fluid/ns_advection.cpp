@@ -5,16 +5,21 @@
 // upwind cell i (L if s > 0, else R) gives
 //   f_face = f_i + s (1 - s un) (df/dx_d)_i h / 2 + (dt/2) src_i
 //            - dt v_t (f_i - f_{i-t}) / (2h)   for each transverse direction t (upwinded)
-// 1. prediction: f = u_d on faces along d (advecting with the cell velocities), src = g;
-//    the face field is then projected with the half-step pressure pf.
+// 1. prediction: f = u_d on faces along d (advecting with the cell velocities), src = g +
+//    (mu/rho) lap u_d; the face field is then projected with the half-step pressure pf.
 // 2. advection: each component u_c is advanced conservatively with the projected uf,
-//    u_c -= dt div(u_c,face uf), src = g_c.
+//    u_c -= dt div(u_c,face uf), src = g_c + (mu/rho) lap u_c.
+// The viscous term in the source keeps the predicted face values consistent at a steady
+// state (Basilisk's source is g alone, which leaves an O(dt) = O(h) error of
+// (dt/2) nu lap u in steady flows: measured here, the cavity error vs Ghia fell by only
+// 1.3x from 64^2 to 128^2 without it).
 // At a resolution jump whose upwind cell is a halo cell (the coarse side), the coarse
 // leaf's slope is used and the transverse term dropped: first order there, only there.
 // An upwind ghost (inflow) gives the boundary value.
 #include <algorithm>
 #include <cmath>
 
+#include "fluid/multigrid/elliptic_operator.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "tree/prolongation.hpp"
 
@@ -63,10 +68,19 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   sync_velocity();
   for (int d = 0; d < D; ++d) tree_.sync(g_[d]);
   std::array<std::span<const double>, D> u, g;
+  for (int d = 0; d < D; ++d) u[d] = tree_.values(u_[d]);
+  // Sources: g + (mu/rho) lap u per component, valid on leaves and (injected) halos.
   for (int d = 0; d < D; ++d) {
-    u[d] = tree_.values(u_[d]);
-    g[d] = tree_.values(g_[d]);
+    std::vector<double>& src = source_[d];
+    EllipticOperator<D> laplacian(tree_, {mu_ / options_.density}, {}, conditions_.velocity[d]);
+    tree_.sync(tree_.values(u_[d]), conditions_.velocity[d], tree::Prolongation::quadratic);
+    laplacian.apply_leaves(u[d], src);
+    const std::span<const double> gd = tree_.values(g_[d]);
+    tree_.for_each_leaf([&](Index c) { src[c] += gd[c]; });
+    inject_halo<D>(tree_, src);
+    g[d] = src;
   }
+  sync_velocity();  // back to the linear halos the slopes and faces use
   // 1. Prediction of the normal velocity on every face, then its approximate projection.
   std::array<std::vector<double>, D>& sl = slope_;
   for (int d = 0; d < D; ++d) {
