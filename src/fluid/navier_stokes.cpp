@@ -59,21 +59,20 @@ void NavierStokes<D>::sync_velocity() {
 
 template <int D>
 double NavierStokes<D>::stable_dt() const {
-  if (options_.cfl == 0.0) return options_.dt;
-  double fastest = 0.0;  // max |uf| / h over the faces of the leaves
+  double dt = std::min(options_.dt, dt_cap_);
+  if (options_.cfl == 0.0) return dt;
+  // From the cell velocities (a checkpointed field), so a restarted run repeats the steps.
+  double fastest = 0.0;  // max |u_d| / h over the leaves
   for (int l = 0; l <= tree_.depth(); ++l) {
     const tree::Level<D>& lv = tree_.level(l);
     const double inv_h = 1.0 / tree_.cell_size(l);
 #pragma omp parallel for schedule(static) reduction(max : fastest) if (lv.n_active > tree::kParallelMin)
     for (Index i = 0; i < lv.n_active; ++i) {
       if (!lv.leaf[i]) continue;
-      const Index c = lv.base + i;
-      const Index* row = lv.face_row(c);
-      for (int d = 0; d < D; ++d)
-        fastest = std::max({fastest, std::abs(uf_[d][c]) * inv_h, std::abs(uf_[d][row[2 * d + 1]]) * inv_h});
+      for (int d = 0; d < D; ++d) fastest = std::max(fastest, std::abs(tree_.values(u_[d])[lv.base + i]) * inv_h);
     }
   }
-  return fastest > 0.0 ? std::min(options_.dt, options_.cfl / fastest) : options_.dt;
+  return fastest > 0.0 ? std::min(dt, options_.cfl / fastest) : dt;
 }
 
 template <int D>
@@ -213,8 +212,6 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
   for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
   const auto counts = tree_.adapt(opt);
   resize_scratch();
-  face_average_of_velocity(uf_);  // for the next CFL estimate
-  restrict_faces<D>(tree_, uf_);
   return counts;
 }
 

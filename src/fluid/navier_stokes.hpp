@@ -4,7 +4,7 @@
 // rho = 1 and mu = 1/Re unless given:
 //   du/dt + (u.grad)u = (1/rho) (-grad p + div(mu grad u)) + a,   div u = 0.
 // Cell-centred velocity u and pressure p, face (MAC) velocity uf; one step is the sequence
-//   stability   dt = min(dt_max, cfl h / |uf|)                       (or fixed)
+//   stability   dt = min(dt_max, cfl h / |u|)                        (or fixed)
 //   advection   uf = BCG prediction of u at t + dt/2 on faces, projected with pf (dt/2);
 //               u -= dt div(u_face uf)                                (skipped for Stokes)
 //   viscosity   (rho/dt)(u - u*) = div(mu grad u), implicit (backward Euler, or
@@ -68,6 +68,8 @@ class NavierStokes {
   const FlowConditions<D>& conditions() const { return conditions_; }
   double time() const { return time_; }
   void set_time(double t) { time_ = t; }
+  // The next steps are at most `cap` long (to land on an output or final time).
+  void limit_dt(double cap) { dt_cap_ = cap; }
 
   tree::FieldId velocity(int d) const { return u_[d]; }
   tree::FieldId pressure() const { return p_; }
@@ -107,7 +109,8 @@ class NavierStokes {
   FlowConditions<D> conditions_;
   tree::BoundaryConditions<D> zero_gradient_;
   double time_ = 0.0;
-  double boundary_time_ = 0.0;  // the time boundary conditions are evaluated at
+  double boundary_time_ = 0.0;
+  double dt_cap_ = 1e300;  // the time boundary conditions are evaluated at
   double mu_ = 1.0;
   std::array<tree::FieldId, D> u_{}, g_{};
   tree::FieldId p_ = 0, pf_ = 0;

@@ -105,6 +105,7 @@ struct OutputConfig {
   bool vtu = true;                 // write .vtu snapshots and series.pvd
   bool checkpoint = false;         // write HDF5 checkpoints
   int checkpoint_interval = 0;     // steps between checkpoints (0: only at the end)
+  bool cells_csv = false;          // write cells_final.csv: every leaf's centre, level, u, p
   std::string directory;           // default out/<name>
   bool operator==(const OutputConfig&) const = default;
 };

@@ -130,6 +130,7 @@ void parse_output(TableReader r, OutputConfig& o) {
   r.read("vtu", o.vtu);
   r.read("checkpoint", o.checkpoint);
   r.read("checkpoint_interval", o.checkpoint_interval);
+  r.read("cells_csv", o.cells_csv);
   r.read("directory", o.directory);
   r.finish();
 }

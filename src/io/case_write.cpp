@@ -105,6 +105,7 @@ std::string to_toml(const CaseConfig& c) {
   line("vtu", b(c.output.vtu));
   line("checkpoint", b(c.output.checkpoint));
   line("checkpoint_interval", fmt::format("{}", c.output.checkpoint_interval));
+  line("cells_csv", b(c.output.cells_csv));
   line("directory", toml_string(c.output.directory));
   return out;
 }

@@ -76,6 +76,7 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
   EXPECT_FALSE(c.output.vtu);
   EXPECT_TRUE(c.output.checkpoint);
   EXPECT_EQ(c.output.checkpoint_interval, 1000);
+  EXPECT_TRUE(c.output.cells_csv);
   EXPECT_EQ(c.output.directory, "results/relax");
 }
 

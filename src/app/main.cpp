@@ -1,0 +1,66 @@
+// The capsflow command (DESIGN.md, "What the user sees"). Exit status: 0 done, 2 bad
+// input (one line on stderr naming the file or key), 3 a run that failed on the way.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+#include "app/run_case.hpp"
+#include "io/errors.hpp"
+
+int main(int argc, char** argv) {
+  using capsflow::app::RunRequest;
+  CLI::App cli{"capsflow: elastic capsules in confined flows (finite volumes on an adaptive octree, "
+               "finite-element membranes, immersed boundaries)"};
+  cli.set_version_flag("--version", CAPSFLOW_VERSION);
+  cli.require_subcommand(1);
+
+  RunRequest request;
+  std::string adapt;
+  std::string out, restart;
+  auto* run = cli.add_subcommand("run", "Run a case file; outputs go to --out (default out/<case name>)");
+  run->add_option("case", request.case_file, "Case file (TOML; docs/case-file.md)")->required();
+  run->add_option("--adapt", adapt, "Adaptive refinement on or off (overrides adapt.enabled)")
+      ->check(CLI::IsMember({"on", "off"}));
+  run->add_option("--set", request.overrides, "Override a key of the case file: --set fluid.Re=10 (repeatable)")
+      ->type_name("KEY=VALUE");
+  run->add_option("--out", out, "Output directory");
+  run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case");
+  run->add_flag("--quiet", request.quiet, "No progress line");
+
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return cli.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return cli.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return cli.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "capsflow: %s (see capsflow --help)\n", e.what());
+    return 2;
+  }
+  if (!adapt.empty()) request.adapt = adapt == "on";
+  if (!out.empty()) request.out = out;
+  if (!restart.empty()) request.restart = restart;
+
+  try {
+    capsflow::app::run_case(request);
+  } catch (const capsflow::app::RunFailure& e) {
+    std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
+    return 3;
+  } catch (const capsflow::io::CaseError& e) {
+    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    return 2;
+  } catch (const capsflow::io::CheckpointError& e) {
+    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    return 2;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "capsflow: %s: %s\n", request.case_file.string().c_str(), e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
+    return 3;
+  }
+  return 0;
+}

@@ -1,0 +1,46 @@
+#include "app/progress.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+#include <fmt/format.h>
+
+namespace capsflow::app {
+
+ProgressLine::ProgressLine(bool quiet)
+    : quiet_(quiet), terminal_(isatty(fileno(stderr)) != 0), start_(std::chrono::steady_clock::now()),
+      last_print_(start_) {}
+
+void ProgressLine::update(const ProgressState& s, bool force) {
+  if (quiet_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (first_step_ < 0) first_step_ = s.step;
+  const double since = std::chrono::duration<double>(now - last_print_).count();
+  if (!force && since < (terminal_ ? 0.2 : 5.0)) return;
+  last_print_ = now;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const double rate = elapsed > 0 ? double(s.step - first_step_) / elapsed : 0.0;
+  const double fraction = s.t_end > 0 ? s.t / s.t_end : 1.0;
+  const double eta = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+  const auto seconds = static_cast<long>(eta);
+  std::string line = fmt::format("step {}  t {:.4g}/{:.4g} ({:.0f}%)  dt {:.2e}  cells {}  level {}  mg {}  "
+                                 "{:.1f} steps/s  ETA {}:{:02d}:{:02d}",
+                                 s.step, s.t, s.t_end, 100 * fraction, s.dt, s.cells, s.max_level, s.mg_cycles,
+                                 rate, seconds / 3600, (seconds / 60) % 60, seconds % 60);
+  if (terminal_) {
+    const std::size_t width = line.size();
+    if (width < last_width_) line.append(last_width_ - width, ' ');
+    last_width_ = width;
+    std::fprintf(stderr, "\r%s", line.c_str());
+  } else {
+    std::fprintf(stderr, "%s\n", line.c_str());
+  }
+  std::fflush(stderr);
+}
+
+void ProgressLine::finish() {
+  if (!quiet_ && terminal_) std::fprintf(stderr, "\n");
+}
+
+}  // namespace capsflow::app

@@ -1,0 +1,31 @@
+#pragma once
+// The run's progress on standard error: one line that rewrites itself on a terminal, plain
+// lines every few seconds otherwise (logs, CI), nothing with --quiet.
+#include <chrono>
+#include <string>
+
+namespace capsflow::app {
+
+struct ProgressState {
+  long step = 0;
+  double t = 0.0, t_end = 0.0, dt = 0.0;
+  long cells = 0;
+  int max_level = 0;
+  int mg_cycles = 0;
+};
+
+class ProgressLine {
+ public:
+  explicit ProgressLine(bool quiet);
+  void update(const ProgressState& s, bool force = false);
+  void finish();
+
+ private:
+  bool quiet_;
+  bool terminal_;
+  std::chrono::steady_clock::time_point start_, last_print_;
+  long first_step_ = -1;
+  std::size_t last_width_ = 0;
+};
+
+}  // namespace capsflow::app

@@ -1,0 +1,208 @@
+// `capsflow run`: parse and check the case, build the tree and the flow solver, then the
+// time loop with adaptation, diagnostics, snapshots and checkpoints. Everything that can
+// be refused is refused before the output directory is touched.
+#include "app/run_case.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "app/progress.hpp"
+#include "fluid/navier_stokes.hpp"
+#include "io/atomic_write.hpp"
+#include "io/case_config.hpp"
+#include "io/checkpoint.hpp"
+#include "io/diagnostics_csv.hpp"
+#include "io/pvd_series.hpp"
+#include "io/vtu_tree.hpp"
+
+namespace capsflow::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+template <int D>
+fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
+  fluid::FlowOptions<D> o;
+  o.Re = c.fluid.Re;
+  o.stokes = c.fluid.stokes;
+  o.dt = c.time.cfl > 0.0 && c.time.dt_max > 0.0 ? c.time.dt_max : c.time.dt;
+  o.cfl = c.time.cfl;
+  for (int s = 0; s < 2 * D; ++s) {
+    const io::BoundaryConfig& b = c.fluid.boundary[s];
+    fluid::SideFlow<D>& f = o.boundaries[s];
+    switch (b.type) {
+      case io::BoundaryType::wall: f.kind = fluid::SideKind::wall; break;
+      case io::BoundaryType::moving_wall: f.kind = fluid::SideKind::moving_wall; break;
+      case io::BoundaryType::inflow: f.kind = fluid::SideKind::inflow; break;
+      case io::BoundaryType::outflow: f.kind = fluid::SideKind::outflow; break;
+      case io::BoundaryType::periodic: f.kind = fluid::SideKind::periodic; break;
+    }
+    for (int d = 0; d < D; ++d) f.velocity[d] = b.velocity[d];
+    f.mean_velocity = b.mean_velocity;
+    switch (b.profile) {
+      case io::InflowProfile::uniform: f.profile = fluid::InflowProfile::uniform; break;
+      case io::InflowProfile::parabolic: f.profile = fluid::InflowProfile::parabolic; break;
+      case io::InflowProfile::square_duct: f.profile = fluid::InflowProfile::square_duct; break;
+    }
+  }
+  o.projection = {.tolerance = c.fluid.multigrid.tolerance, .max_cycles = c.fluid.multigrid.max_cycles};
+  o.viscous = o.projection;
+  return o;
+}
+
+// Forced refinement: the walls (non-periodic sides) at adapt.wall_level.
+template <int D>
+std::function<int(const tree::Box<D>&)> wall_refinement(const io::CaseConfig& c, const tree::TreeOptions<D>& t) {
+  const int level = c.adapt.wall_level;
+  if (level <= 0) return {};
+  return [level, t](const tree::Box<D>& b) {
+    for (int d = 0; d < D; ++d) {
+      if (t.periodic[d]) continue;
+      const double lo = t.origin[d], hi = lo + t.roots[d] * t.root_size;
+      if (b.lo[d] <= lo + 1e-12 || b.hi[d] >= hi - 1e-12) return level;
+    }
+    return 0;
+  };
+}
+
+std::string numbered(const char* stem, long step, const char* ext) {
+  return fmt::format("{}_{:06d}.{}", stem, step, ext);
+}
+
+template <int D>
+class FlowRun {
+ public:
+  FlowRun(const io::CaseConfig& c, const RunRequest& req, fs::path out)
+      : case_(c), request_(req), out_(std::move(out)), tree_(io::tree_options<D>(c)), ns_(tree_, flow_options<D>(c)),
+        progress_(req.quiet) {}
+
+  void run() {
+    const auto& c = case_;
+    const int top = c.adapt.max_level;
+    long step = 0;
+    if (request_.restart) {
+      const io::RestoredState state = io::read_checkpoint<D>(*request_.restart, tree_);
+      ns_.set_time(state.scalars.time);
+      step = static_cast<long>(state.scalars.step);
+    } else if (c.adapt.enabled) {
+      const auto walls = wall_refinement<D>(c, tree_.options());
+      const int base = c.adapt.min_level;
+      tree_.refine_to([&](const tree::Box<D>& b) { return std::max(base, walls ? walls(b) : 0); });
+    } else {
+      tree_.refine_to([top](const tree::Box<D>&) { return top; });
+    }
+    fs::create_directories(out_);
+    io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
+    const auto columns = io::standard_diagnostics_columns();
+    io::DiagnosticsCsv diagnostics = request_.restart
+                                         ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
+                                         : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
+    io::PvdSeries series = request_.restart && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
+                                                                                : io::PvdSeries(out_ / "series.pvd");
+    if (request_.restart) series.truncate_after(ns_.time());
+    else if (c.output.vtu) snapshot(series, step);
+
+    const auto start = std::chrono::steady_clock::now();
+    const double t_end = c.time.t_end;
+    const auto walls = wall_refinement<D>(c, tree_.options());
+    while (ns_.time() < t_end * (1 - 1e-12)) {
+      ns_.limit_dt(t_end - ns_.time());
+      const fluid::StepStats st = ns_.step();
+      ++step;
+      const double vmax = max_speed();
+      if (!std::isfinite(vmax))
+        throw RunFailure(fmt::format(
+            "step {}, t = {:.6g}: the velocity is not finite. Likely cause: dt = {:.3g} above the stability "
+            "limit (advection needs dt < h / |u|; set time.cfl, e.g. 0.5). Output up to the last snapshot is kept in {}",
+            step, ns_.time(), st.dt, out_.string()));
+      const bool last = ns_.time() >= t_end * (1 - 1e-12);
+      if (c.adapt.enabled && step % c.adapt.interval == 0 && !last)
+        (void)ns_.adapt(c.adapt.velocity_tolerance,
+                        {.min_level = c.adapt.min_level, .max_level = top, .required_level = walls});
+      if (step % c.output.diagnostics_interval == 0 || last) {
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        diagnostics.row({double(step), ns_.time(), st.dt, double(tree_.num_leaves()), double(tree_.depth()), nan, nan,
+                         nan, nan, vmax, double(st.cycles()), wall});
+      }
+      if (c.output.vtu && (step % c.output.interval == 0 || last)) snapshot(series, step);
+      if (c.output.checkpoint &&
+          ((c.output.checkpoint_interval > 0 && step % c.output.checkpoint_interval == 0) || last))
+        io::write_checkpoint<D>(out_ / numbered("checkpoint", step, "h5"), tree_, {ns_.time(), step, st.dt});
+      progress_.update({step, ns_.time(), t_end, st.dt, tree_.num_leaves(), tree_.depth(), st.cycles()}, last);
+    }
+    progress_.finish();
+    if (c.output.cells_csv) write_cells_csv();
+  }
+
+ private:
+  double max_speed() {
+    double worst = 0.0;
+    for (const auto c : tree_.leaves()) {
+      double s = 0.0;
+      for (int d = 0; d < D; ++d) s += ns_.u(d)[c] * ns_.u(d)[c];
+      worst = std::max(worst, s);  // NaN propagates through the comparison below
+      if (std::isnan(s)) return s;
+    }
+    return std::sqrt(worst);
+  }
+
+  void snapshot(io::PvdSeries& series, long step) {
+    std::vector<std::span<const double>> u;
+    for (int d = 0; d < D; ++d) u.push_back(ns_.u(d));
+    const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {ns_.p()}}};
+    const std::string file = numbered("fluid", step, "vtu");
+    io::write_tree_vtu<D>(out_ / file, tree_, fields);
+    series.add(ns_.time(), out_ / file);
+  }
+
+  void write_cells_csv() {
+    std::string text = D == 2 ? "x,y,level,u.x,u.y,p\n" : "x,y,z,level,u.x,u.y,u.z,p\n";
+    for (const auto c : tree_.leaves()) {
+      const auto x = tree_.center(c);
+      for (int d = 0; d < D; ++d) text += fmt::format("{},", x[d]);
+      text += fmt::format("{},", tree_.level_of(c));
+      for (int d = 0; d < D; ++d) text += fmt::format("{},", ns_.u(d)[c]);
+      text += fmt::format("{}\n", ns_.p()[c]);
+    }
+    io::atomic_write_text(out_ / "cells_final.csv", text);
+  }
+
+  const io::CaseConfig& case_;
+  const RunRequest& request_;
+  fs::path out_;
+  tree::Tree<D> tree_;
+  fluid::NavierStokes<D> ns_;
+  ProgressLine progress_;
+};
+
+}  // namespace
+
+void run_case(const RunRequest& req) {
+  io::CaseConfig c = io::parse_case(req.case_file, req.overrides);
+  if (req.adapt) c.adapt.enabled = *req.adapt;
+  const std::string source = req.case_file.string();
+  if (!c.capsules.empty())
+    throw io::CaseError(fmt::format("{}: capsule: the immersed-boundary coupling is not in this version yet; "
+                                    "remove the [[capsule]] tables to run the flow alone",
+                                    source));
+  const fs::path out = req.out ? *req.out : (c.output.directory.empty() ? fs::path("out") / c.name : fs::path(c.output.directory));
+  if (req.restart && !fs::exists(*req.restart))
+    throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));
+  // Construction validates the flow options and boundary sides (std::invalid_argument).
+  if (c.dimension == 2) {
+    FlowRun<2> run(c, req, out);
+    run.run();
+  } else {
+    FlowRun<3> run(c, req, out);
+    run.run();
+  }
+}
+
+}  // namespace capsflow::app
