@@ -39,7 +39,7 @@ void Tree<D>::wavelet_error(std::span<const WaveletTolerance> criteria,
     const double inv = 1.0 / crit.tolerance;
     for (int l = 0; l < depth_; ++l) {
       const Level<D>& lv = levels_[l];
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (lv.n_active > kParallelMin / kChildren<D>)
       for (Index i = 0; i < lv.n_active; ++i) {
         if (lv.leaf[i]) continue;
         const Index parent = lv.base + i;
@@ -81,7 +81,7 @@ AdaptCounts Tree<D>::adapt(const AdaptOptions<D>& opt) {
   const float coarse_below = static_cast<float>(1.0 / 1.5);
   for (int l = 0; l <= depth_; ++l) {
     const Level<D>& lv = levels_[l];
-#pragma omp parallel for schedule(dynamic, 1024)
+#pragma omp parallel for schedule(dynamic, 1024) if (lv.n_active > kParallelMin)
     for (Index i = 0; i < lv.n_active; ++i) {
       if (!lv.leaf[i]) continue;
       const Index c = lv.base + i;
@@ -142,7 +142,7 @@ AdaptCounts Tree<D>::decide_and_rebuild(int min_level) {
   for (int l = 0; l <= depth_; ++l) {
     const Level<D>& lv = levels_[l];
     Index refined = 0, coarsened = 0;
-#pragma omp parallel for schedule(static) reduction(+ : refined, coarsened)
+#pragma omp parallel for schedule(static) reduction(+ : refined, coarsened) if (lv.n_active > kParallelMin)
     for (Index i = 0; i < lv.n_active; ++i) {
       const Index c = lv.base + i;
       if (lv.leaf[i]) {

@@ -233,7 +233,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
 
   // A. Mark the leaves and ghosts next to a parent.
   cur.mark.assign(cur.size(), 0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (na > kParallelMin)
   for (Index i = 0; i < na; ++i) {
     if (cur.leaf[i]) continue;
     const Index c = cur_base + i;
@@ -307,7 +307,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
   const Index nx_base = nx.base, nx_ghost_begin = nx.ghost_begin();
   const Index cur_ghost_begin = cur.ghost_begin();
   const bool has_old = l <= depth_ && !old.leaf.empty();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (na > kParallelMin / kChildren<D>)
   for (Index i = 0; i < na; ++i) {
     if (cur.leaf[i]) continue;
     const Index parent = cur_base + i;
@@ -364,7 +364,7 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
   for (;; ++l) {
     Level<D>& cur = next[l];
     Index parents = 0;
-#pragma omp parallel for schedule(static) reduction(+ : parents)
+#pragma omp parallel for schedule(static) reduction(+ : parents) if (cur.n_active > kParallelMin)
     for (Index i = 0; i < cur.n_active; ++i) {
       const Index o = cur.old_index[i];
       const bool refined = o != kNone && refined_next[o];

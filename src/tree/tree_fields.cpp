@@ -170,7 +170,7 @@ void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, 
       for (int l = 0; l <= new_depth; ++l) {
         const Level<D>& nl = next[l];
         const Level<D>* ol = l <= depth_ ? &levels_[l] : nullptr;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nl.n_active > kParallelMin)
         for (Index i = 0; i < nl.n_active; ++i) {
           const Index o = nl.old_index[i];
           if (o == kNone) continue;  // a new child: written by its parent below
