@@ -118,7 +118,9 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
       boundary_time_ = t_new;
     }
     EllipticOperator<D, ConstantFaces, ConstantCells> op(tree_, {theta * mu_}, {lambda}, conditions_.velocity[d]);
-    const auto s = solve(op, u, rhs_, mg_, options_.viscous);
+    MultigridOptions opt = options_.viscous;
+    opt.tolerance *= options_.density / dt;  // residual of (rho/dt) u - div(mu grad u)
+    const auto s = solve(op, u, rhs_, mg_, opt);
     stats.viscous_cycles += s.cycles;
     stats.converged = stats.converged && s.converged;
   }
@@ -163,7 +165,9 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
   const double alpha = 1.0 / options_.density;
   EllipticOperator<D> op(tree_, {alpha}, {}, conditions_.pressure);
   std::span<double> pv = tree_.values(p);
-  const auto s = solve(op, pv, rhs_, mg_, opt);  // leaves p synced (quadratic halos)
+  MultigridOptions scaled = opt;
+  scaled.tolerance /= dt * dt;  // residual of div(alpha grad p) = div(uf)/dt
+  const auto s = solve(op, pv, rhs_, mg_, scaled);  // leaves p synced (quadratic halos)
   converged = converged && s.converged;
   for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
     uf[d][hi] -= dt * alpha * (pv[hi] - pv[lo]) / h;

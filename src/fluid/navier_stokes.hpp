@@ -39,6 +39,10 @@ struct FlowOptions {
   // order, L-stable: Basilisk's choice and the default).
   bool crank_nicolson = false;
   std::array<SideFlow<D>, 2 * D> boundaries{};
+  // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
+  // max |div uf| dt <= tolerance (the relative volume change of a cell in one step), the
+  // viscous solve when its residual in velocity units is <= tolerance. Each solve scales
+  // them to the residual it sees (1/dt^2 and rho/dt).
   MultigridOptions projection{.tolerance = 1e-3};
   MultigridOptions viscous{.tolerance = 1e-3};
 };

@@ -1,0 +1,87 @@
+// fluid/… benchmarks: one full time step (advection unless Stokes, implicit viscosity by
+// three Helmholtz solves, projection; tolerance 1e-3, warm starts) on uniform 64^3 and
+// 128^3 cubes (a lid-driven cube, Re = 1 or 10) and on the seed channel refined around the
+// capsule shell, driven by a radial force on the shell (a capsule relaxing). Reported per
+// core (cell_steps_per_s = leaves x steps / s / threads) and in dense Jacobi sweeps over as
+// many leaves (bench/baseline.hpp).
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "baseline.hpp"
+#include "fluid/navier_stokes.hpp"
+#include "seed_channel.hpp"
+
+namespace {
+
+using namespace capsflow;
+
+struct Setup {
+  tree::Tree<3> tree;
+  fluid::FlowOptions<3> options;
+  bool shell_force = false;
+};
+
+Setup lid_cube(int level, bool stokes) {
+  tree::Tree<3> t({.roots = {1, 1, 1}, .max_level = level});
+  t.refine_to([level](const tree::Box<3>&) { return level; });
+  fluid::FlowOptions<3> o{.Re = stokes ? 1.0 : 10.0, .stokes = stokes, .dt = 1e-3};
+  o.boundaries[3] = {.kind = fluid::SideKind::moving_wall, .velocity = {1.0, 0.0, 0.0}};
+  return {std::move(t), o, false};
+}
+
+Setup seed_shell(bool stokes) {
+  tree::Tree<3> t(bench::seed_channel());
+  t.refine_to(bench::seed_shell(0.0));
+  fluid::FlowOptions<3> o{.Re = stokes ? 1.0 : 10.0, .stokes = stokes, .dt = 1e-3};
+  o.boundaries[1].kind = fluid::SideKind::outflow;  // as the seed: walls elsewhere
+  return {std::move(t), o, true};
+}
+
+void run(benchmark::State& state, Setup s) {
+  fluid::NavierStokes<3> ns(s.tree, s.options);
+  if (s.shell_force)  // a capsule-like load: radial force density on the shell, squeezing along x
+    ns.set_face_force([](const tree::Tree<3>& t, fluid::FaceField<3>& f) {
+      fluid::for_each_face<3>(t, [&](int d, tree::Index, tree::Index hi, double h, const tree::Level<3>&) {
+        tree::Point<3> x = t.center_at(t.level_of(hi), t.coords(hi));
+        x[d] -= 0.5 * h;
+        const double r = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+        const double band = std::exp(-std::pow((r - bench::kSeedRadius) / bench::kSeedFine, 2));
+        f[d][hi] = d == 0 ? -20.0 * band * x[0] : 10.0 * band * x[d];
+      });
+      fluid::restrict_faces<3>(t, f);
+    });
+  for (int i = 0; i < 3; ++i) (void)ns.step();  // warm starts become representative
+  double seconds = 0.0;
+  long steps = 0, cycles = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto st = ns.step();
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    cycles += st.cycles();
+    ++steps;
+  }
+  const double per_step = seconds / double(steps);
+  const double leaves = s.tree.num_leaves();
+  const int threads = omp_get_max_threads();
+  state.counters["cells"] = leaves;
+  state.counters["threads"] = threads;
+  state.counters["step_ms"] = per_step * 1e3;
+  state.counters["cell_steps_per_s"] = leaves / per_step / threads;
+  state.counters["step_sweeps"] = per_step / bench::dense_jacobi_sweep_seconds(static_cast<std::int64_t>(leaves));
+  state.counters["mg_cycles_per_step"] = double(cycles) / double(steps);
+}
+
+void BM_StokesUniform(benchmark::State& st) { run(st, lid_cube(static_cast<int>(st.range(0)), true)); }
+void BM_NavierStokesUniform(benchmark::State& st) { run(st, lid_cube(static_cast<int>(st.range(0)), false)); }
+void BM_StokesSeedShell(benchmark::State& st) { run(st, seed_shell(true)); }
+void BM_NavierStokesSeedShell(benchmark::State& st) { run(st, seed_shell(false)); }
+
+BENCHMARK(BM_StokesUniform)->Name("fluid/stokes_step_uniform")->Arg(6)->Arg(7)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_NavierStokesUniform)->Name("fluid/ns_step_uniform")->Arg(6)->Arg(7)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_StokesSeedShell)->Name("fluid/stokes_step_seed_shell")->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_NavierStokesSeedShell)->Name("fluid/ns_step_seed_shell")->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+}  // namespace
