@@ -111,8 +111,9 @@ class EllipticOperator {
     const double h2 = tree_.cell_size(l) * tree_.cell_size(l);
     for (int s = 0; s < sweeps; ++s) {
       if (opt.smoother == Smoother::red_black) {
+        // No ghost refill between the colours: a face ghost's source is the cell it
+        // touches, so black cells never read the ghost of a red one.
         relax_colour(lv, 0, h2, da, res);
-        tree_.fill_ghosts(l, da, correction_bc_);
         relax_colour(lv, 1, h2, da, res);
       } else {
         const Index n = lv.n_active, base = lv.base;

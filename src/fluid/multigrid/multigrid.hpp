@@ -126,8 +126,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   auto compute_residual = [&] {
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
     t.sync(a, op.bc(), tree::Prolongation::quadratic);
-    (void)op.residual(a, b, res);
-    if (singular) detail::remove_mean<D>(t, res);
+    const double worst = op.residual(a, b, res);
+    if (!singular) return worst;
+    detail::remove_mean<D>(t, res);
     return detail::leaf_max_abs<D>(t, res);
   };
   auto fix_mean = [&] {
