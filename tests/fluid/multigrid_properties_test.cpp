@@ -8,6 +8,7 @@
 
 #include "fluid/multigrid/elliptic_operator.hpp"
 #include "fluid/multigrid/multigrid.hpp"
+#include "nested_trees.hpp"
 
 namespace capsflow::fluid {
 namespace {
@@ -19,23 +20,10 @@ using tree::Tree;
 
 const double kPi = std::acos(-1.0);
 
-// Finest level inside r < 0.2 of the centre, coarser outside (nested across levels).
+// Finest level inside r < 0.2 of the centre, two levels coarser outside.
 template <int D>
 Tree<D> refined_ball(int level, bool periodic = false) {
-  tree::TreeOptions<D> o{.max_level = level};
-  o.roots.fill(1);
-  o.periodic.fill(periodic);
-  Tree<D> t(o);
-  t.refine_to([level](const tree::Box<D>& b) {
-    double r2 = 0.0;
-    for (int d = 0; d < D; ++d) {
-      const double lo = std::floor(b.lo[d] * 8 + 1e-9) / 8, hi = std::ceil(b.hi[d] * 8 - 1e-9) / 8;
-      const double c = std::clamp(0.5, lo, hi) - 0.5;
-      r2 += c * c;
-    }
-    return r2 < 0.2 * 0.2 ? level : level - 2;
-  });
-  return t;
+  return testing::nested_ball_tree<D>(level, {{0.2, 0}}, 2, periodic);
 }
 
 // Implicit-viscosity form: lap(a) - a / (nu dt) = b, with nu dt = 0.01.

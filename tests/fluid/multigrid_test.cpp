@@ -9,6 +9,7 @@
 
 #include "fluid/multigrid/elliptic_operator.hpp"
 #include "fluid/multigrid/multigrid.hpp"
+#include "nested_trees.hpp"
 
 namespace capsflow::fluid {
 namespace {
@@ -77,27 +78,11 @@ Tree<D> uniform(int level, bool periodic) {
   return t;
 }
 
-// Finest level inside a disk/ball around the centre, one level coarser around it, two
-// levels coarser far away: resolution jumps cross the region where the solution varies.
-// The regions are unions of cells of a fixed 1/8 lattice, so the grids of successive
-// levels are nested and the jumps stay in place (a refinement region that follows a
-// sphere at each resolution moves its jumps by O(h) and makes max-norm orders noisy).
+// Finest level inside r < 0.13 of the centre, one level coarser to r < 0.26, two levels
+// coarser beyond: resolution jumps cross the region where the solution varies.
 template <int D>
 Tree<D> adaptive(int level, bool periodic) {
-  tree::TreeOptions<D> o{.max_level = level};
-  o.roots.fill(1);
-  o.periodic.fill(periodic);
-  Tree<D> t(o);
-  t.refine_to([level](const tree::Box<D>& b) {
-    double r2 = 0.0;
-    for (int d = 0; d < D; ++d) {
-      const double lo = std::floor(b.lo[d] * 8 + 1e-9) / 8, hi = std::ceil(b.hi[d] * 8 - 1e-9) / 8;
-      const double c = std::clamp(0.5, lo, hi) - 0.5;
-      r2 += c * c;
-    }
-    return r2 < 0.13 * 0.13 ? level : (r2 < 0.26 * 0.26 ? level - 1 : level - 2);
-  });
-  return t;
+  return testing::nested_ball_tree<D>(level, {{0.13, 0}, {0.26, 1}}, 2, periodic);
 }
 
 double order(double coarse, double fine) {
