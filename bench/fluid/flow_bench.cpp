@@ -22,6 +22,7 @@ struct Setup {
   tree::Tree<3> tree;
   fluid::FlowOptions<3> options;
   bool shell_force = false;
+  double radius = bench::kSeedRadius;
 };
 
 Setup lid_cube(int level, bool stokes) {
@@ -30,6 +31,14 @@ Setup lid_cube(int level, bool stokes) {
   fluid::FlowOptions<3> o{.Re = stokes ? 1.0 : 10.0, .stokes = stokes, .dt = 1e-3};
   o.boundaries[3] = {.kind = fluid::SideKind::moving_wall, .velocity = {1.0, 0.0, 0.0}};
   return {std::move(t), o, false};
+}
+
+// The capsule-like load of the seed case in a uniform walled cube [-1, 1]^3.
+Setup shell_cube(int level, bool stokes) {
+  tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1}, .max_level = level});
+  t.refine_to([level](const tree::Box<3>&) { return level; });
+  fluid::FlowOptions<3> o{.Re = stokes ? 1.0 : 10.0, .stokes = stokes, .dt = 1e-3};
+  return {std::move(t), o, true, 0.6};
 }
 
 Setup seed_shell(bool stokes) {
@@ -42,13 +51,14 @@ Setup seed_shell(bool stokes) {
 
 void run(benchmark::State& state, Setup s) {
   fluid::NavierStokes<3> ns(s.tree, s.options);
+  const double radius = s.radius;
   if (s.shell_force)  // a capsule-like load: radial force density on the shell, squeezing along x
-    ns.set_face_force([](const tree::Tree<3>& t, fluid::FaceField<3>& f) {
+    ns.set_face_force([radius](const tree::Tree<3>& t, fluid::FaceField<3>& f) {
       fluid::for_each_face<3>(t, [&](int d, tree::Index, tree::Index hi, double h, const tree::Level<3>&) {
         tree::Point<3> x = t.center_at(t.level_of(hi), t.coords(hi));
         x[d] -= 0.5 * h;
         const double r = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-        const double band = std::exp(-std::pow((r - bench::kSeedRadius) / bench::kSeedFine, 2));
+        const double band = std::exp(-std::pow((r - radius) / bench::kSeedFine, 2));
         f[d][hi] = d == 0 ? -20.0 * band * x[0] : 10.0 * band * x[d];
       });
       fluid::restrict_faces<3>(t, f);
@@ -77,10 +87,12 @@ void run(benchmark::State& state, Setup s) {
 void BM_StokesUniform(benchmark::State& st) { run(st, lid_cube(static_cast<int>(st.range(0)), true)); }
 void BM_NavierStokesUniform(benchmark::State& st) { run(st, lid_cube(static_cast<int>(st.range(0)), false)); }
 void BM_StokesSeedShell(benchmark::State& st) { run(st, seed_shell(true)); }
+void BM_StokesShellCube(benchmark::State& st) { run(st, shell_cube(static_cast<int>(st.range(0)), true)); }
 void BM_NavierStokesSeedShell(benchmark::State& st) { run(st, seed_shell(false)); }
 
 BENCHMARK(BM_StokesUniform)->Name("fluid/stokes_step_uniform")->Arg(6)->Arg(7)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_NavierStokesUniform)->Name("fluid/ns_step_uniform")->Arg(6)->Arg(7)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_StokesShellCube)->Name("fluid/stokes_step_uniform_capsule_load")->Arg(6)->Arg(7)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_StokesSeedShell)->Name("fluid/stokes_step_seed_shell")->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_NavierStokesSeedShell)->Name("fluid/ns_step_seed_shell")->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
