@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# The main job: installs the dependencies, builds capsflow, runs the 2D lid-driven cavity
-# at Re = 100 (adaptive, about 10 s) and plots its centrelines against Ghia et al. (1982).
-# Leaves out/cavity_2d/: series.pvd + fluid_*.vtu (open series.pvd in ParaView),
-# diagnostics.csv, cells_final.csv and centrelines.png.
+# The main job: installs the dependencies, builds capsflow, runs the quick version of the
+# seed paper's case (a capsule pre-deformed into an ellipsoid relaxing in a square channel,
+# Stokes flow; about 30 s on one core) and plots its Taylor parameter D12(t).
+# Leaves out/relaxation_quick/: series.pvd with fluid_*.vtu and membrane_*.vtu (open
+# series.pvd in ParaView), diagnostics.csv, membrane_final.csv and relaxation.png.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j "$(nproc)" --target capsflow
-./build/src/app/capsflow run cases/cavity_2d.toml --out out/cavity_2d
-/usr/bin/python3 tools/plot_cavity.py out/cavity_2d --re 100
+./build/src/app/capsflow run cases/relaxation_quick.toml --out out/relaxation_quick
+/usr/bin/python3 tools/plot_relaxation.py out/relaxation_quick

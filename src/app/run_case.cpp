@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "app/capsule_set.hpp"
 #include "app/progress.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "io/atomic_write.hpp"
@@ -80,7 +81,10 @@ class FlowRun {
  public:
   FlowRun(const io::CaseConfig& c, const RunRequest& req, fs::path out)
       : case_(c), request_(req), out_(std::move(out)), tree_(io::tree_options<D>(c)), ns_(tree_, flow_options<D>(c)),
-        progress_(req.quiet) {}
+        progress_(req.quiet) {
+    if constexpr (D == 3)
+      if (!c.capsules.empty()) capsules_ = std::make_unique<CapsuleSet>(c, ns_);
+  }
 
   void run() {
     const auto& c = case_;
@@ -90,10 +94,12 @@ class FlowRun {
       const io::RestoredState state = io::read_checkpoint<D>(*request_.restart, tree_);
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
+      if (capsules_) capsules_->restore(state.extras);
     } else if (c.adapt.enabled) {
       const auto walls = wall_refinement<D>(c, tree_.options());
       const int base = c.adapt.min_level;
       tree_.refine_to([&](const tree::Box<D>& b) { return std::max(base, walls ? walls(b) : 0); });
+      if (capsules_) (void)capsules_->coupling().refine_initial();
     } else {
       tree_.refine_to([top](const tree::Box<D>&) { return top; });
     }
@@ -113,7 +119,16 @@ class FlowRun {
     const auto walls = wall_refinement<D>(c, tree_.options());
     while (ns_.time() < t_end * (1 - 1e-12)) {
       ns_.limit_dt(t_end - ns_.time());
-      const fluid::StepStats st = ns_.step();
+      fluid::StepStats st;
+      if (capsules_) {
+        try {
+          st = capsules_->coupling().step().fluid;
+        } catch (const std::runtime_error& e) {
+          throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
+        }
+      } else {
+        st = ns_.step();
+      }
       ++step;
       const double vmax = max_speed();
       if (!std::isfinite(vmax))
@@ -122,23 +137,26 @@ class FlowRun {
             "limit (advection needs dt < h / |u|; set time.cfl, e.g. 0.5). Output up to the last snapshot is kept in {}",
             step, ns_.time(), st.dt, out_.string()));
       const bool last = ns_.time() >= t_end * (1 - 1e-12);
-      if (c.adapt.enabled && step % c.adapt.interval == 0 && !last)
+      if (!capsules_ && c.adapt.enabled && step % c.adapt.interval == 0 && !last)  // (capsules: the coupling adapts)
         (void)ns_.adapt(c.adapt.velocity_tolerance,
                         {.min_level = c.adapt.min_level, .max_level = top, .required_level = walls});
       if (step % c.output.diagnostics_interval == 0 || last) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        diagnostics.row({double(step), ns_.time(), st.dt, double(tree_.num_leaves()), double(tree_.depth()), nan, nan,
-                         nan, nan, vmax, double(st.cycles()), wall});
+        const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics() : CapsuleDiagnostics{nan, nan, nan, nan};
+        diagnostics.row({double(step), ns_.time(), st.dt, double(tree_.num_leaves()), double(tree_.depth()), m.d12,
+                         m.d12_bbox, m.area_rel, m.volume_rel, vmax, double(st.cycles()), wall});
       }
       if (c.output.vtu && (step % c.output.interval == 0 || last)) snapshot(series, step);
       if (c.output.checkpoint &&
           ((c.output.checkpoint_interval > 0 && step % c.output.checkpoint_interval == 0) || last))
-        io::write_checkpoint<D>(out_ / numbered("checkpoint", step, "h5"), tree_, {ns_.time(), step, st.dt});
+        io::write_checkpoint<D>(out_ / numbered("checkpoint", step, "h5"), tree_, {ns_.time(), step, st.dt},
+                                capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
       progress_.update({step, ns_.time(), t_end, st.dt, tree_.num_leaves(), tree_.depth(), st.cycles()}, last);
     }
     progress_.finish();
     if (c.output.cells_csv) write_cells_csv();
+    if (capsules_) capsules_->write_final(out_);
   }
 
  private:
@@ -160,6 +178,7 @@ class FlowRun {
     const std::string file = numbered("fluid", step, "vtu");
     io::write_tree_vtu<D>(out_ / file, tree_, fields);
     series.add(ns_.time(), out_ / file);
+    if (capsules_) capsules_->snapshot(out_, step, ns_.time(), series);
   }
 
   void write_cells_csv() {
@@ -179,6 +198,7 @@ class FlowRun {
   fs::path out_;
   tree::Tree<D> tree_;
   fluid::NavierStokes<D> ns_;
+  std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
   ProgressLine progress_;
 };
 
@@ -187,11 +207,6 @@ class FlowRun {
 void run_case(const RunRequest& req) {
   io::CaseConfig c = io::parse_case(req.case_file, req.overrides);
   if (req.adapt) c.adapt.enabled = *req.adapt;
-  const std::string source = req.case_file.string();
-  if (!c.capsules.empty())
-    throw io::CaseError(fmt::format("{}: capsule: the immersed-boundary coupling is not in this version yet; "
-                                    "remove the [[capsule]] tables to run the flow alone",
-                                    source));
   const fs::path out = req.out ? *req.out : (c.output.directory.empty() ? fs::path("out") / c.name : fs::path(c.output.directory));
   if (req.restart && !fs::exists(*req.restart))
     throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));

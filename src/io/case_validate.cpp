@@ -119,10 +119,11 @@ void check_adapt(const CaseConfig& c, const Checker& ck) {
 }
 
 // The largest semi-axis of the initial shape: what must fit between the walls.
-double largest_semi_axis(const CapsuleConfig& cap) {
+// The capsule's initial half-extent along direction d (the ellipsoid's axes are the
+// coordinate axes, scaled by axes_factors).
+double semi_axis(const CapsuleConfig& cap, int d) {
   switch (cap.shape) {
-    case InitialShape::ellipsoid:
-      return cap.radius * *std::max_element(cap.axes_factors.begin(), cap.axes_factors.end());
+    case InitialShape::ellipsoid: return cap.radius * cap.axes_factors[d];
     case InitialShape::inflated: return cap.radius * cap.inflation;
     case InitialShape::sphere: break;
   }
@@ -147,14 +148,14 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
     ck.positive(fmt::format("{}.axes_factors[{}]", key, d), cap.axes_factors[d]);
   }
   ck.positive(key + ".inflation", cap.inflation);
-  const double semi = largest_semi_axis(cap);
   for (int d = 0; d < 3; ++d) {
+    const double semi = semi_axis(cap, d);
     const double lo = c.domain.origin[d];
     const double hi = lo + c.domain.roots[d] * c.domain.root_size;
     if (cap.centre[d] - semi < lo || cap.centre[d] + semi > hi)
       ck.fail(key + ".centre", vector_repr(cap.centre, 3),
               fmt::format("the capsule does not fit inside the domain: along {} its centre +- {} "
-                          "(largest initial semi-axis) leaves [{}, {}]",
+                          "(its initial semi-axis) leaves [{}, {}]",
                           kAxisNames[d], semi, lo, hi));
   }
 }

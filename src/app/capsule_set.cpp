@@ -1,0 +1,134 @@
+#include "app/capsule_set.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "io/diagnostics_csv.hpp"
+#include "io/vtu_surface.hpp"
+#include "membrane/diagnostics.hpp"
+#include "membrane/shapes.hpp"
+
+namespace capsflow::app {
+
+namespace {
+
+ibm::KernelKind kernel(io::KernelType k) {
+  switch (k) {
+    case io::KernelType::cosine: return ibm::KernelKind::cosine;
+    case io::KernelType::hat: return ibm::KernelKind::hat;
+    case io::KernelType::peskin4: return ibm::KernelKind::peskin4;
+  }
+  return ibm::KernelKind::cosine;
+}
+
+int icosphere_level(int nodes, int index) {
+  for (int level = 0; level <= membrane::max_icosphere_level; ++level)
+    if (membrane::icosphere_node_count(level) == nodes) return level;
+  throw std::invalid_argument(fmt::format("capsule[{}].nodes = {}: not an icosphere size (642, 2562, 10242, 40962)", index, nodes));
+}
+
+std::string numbered(const char* stem, long step, int capsule) {
+  return capsule == 0 ? fmt::format("{}_{:06d}.vtu", stem, step) : fmt::format("{}_{}_{:06d}.vtu", stem, capsule, step);
+}
+
+}  // namespace
+
+CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
+  const io::AdaptConfig& a = c.adapt;
+  coupling_ = std::make_unique<ibm::CapsuleCoupling>(
+      ns, ibm::CouplingAdapt{.enabled = a.enabled, .interval = a.interval, .velocity_tolerance = a.velocity_tolerance,
+                             .min_level = a.min_level, .wall_level = a.wall_level,
+                             .margin = std::max(0, a.membrane_band - 2)});
+  for (std::size_t i = 0; i < c.capsules.size(); ++i) {
+    const io::CapsuleConfig& k = c.capsules[i];
+    const int index = static_cast<int>(i);
+    const Eigen::Vector3d centre(k.centre[0], k.centre[1], k.centre[2]);
+    membrane::Mesh mesh = membrane::make_icosphere(
+        {.order = k.element_order == 2 ? membrane::Order::p2 : membrane::Order::p1,
+         .level = icosphere_level(k.nodes, index), .radius = k.radius, .centre = centre});
+    const membrane::LawParameters law{
+        .kind = k.law == io::MembraneLaw::skalak ? membrane::LawKind::skalak : membrane::LawKind::neo_hookean,
+        .gs = ibm::shear_modulus(k.Ca, c.fluid.Re), .c = k.C};
+    Eigen::Matrix3Xd x = mesh.nodes;
+    switch (k.shape) {
+      case io::InitialShape::sphere: break;
+      case io::InitialShape::ellipsoid: {
+        const Eigen::Matrix3d axes = Eigen::Vector3d(k.axes_factors[0], k.axes_factors[1], k.axes_factors[2]).asDiagonal();
+        x = membrane::map_linear(mesh.nodes, axes, centre);
+        break;
+      }
+      case io::InitialShape::inflated: x = membrane::inflate(mesh.nodes, k.inflation, centre); break;
+    }
+    reference_area_.push_back(membrane::surface_area(mesh, mesh.nodes));
+    reference_volume_.push_back(membrane::enclosed_volume(mesh, mesh.nodes));
+    coupling_->add_capsule(membrane::MembraneModel(std::move(mesh), law), std::move(x),
+                           {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel)});
+  }
+}
+
+CapsuleDiagnostics CapsuleSet::diagnostics() const {
+  const ibm::Capsule& c = coupling_->capsule(0);
+  const auto s = membrane::shape_diagnostics(c.model.mesh(), c.x);
+  return {s.d12, s.d12_bbox, (s.area - reference_area_[0]) / reference_area_[0],
+          (s.volume - reference_volume_[0]) / reference_volume_[0]};
+}
+
+void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries& series) const {
+  for (int i = 0; i < coupling_->num_capsules(); ++i) {
+    const ibm::Capsule& c = coupling_->capsule(i);
+    const auto tensions = c.model.element_tensions(c.x);
+    std::vector<double> t1, t2;
+    for (const auto& p : tensions) {
+      t1.push_back(p.t1);
+      t2.push_back(p.t2);
+    }
+    const membrane::Mesh& mesh = c.model.mesh();
+    std::vector<io::SurfaceArray> points;
+    if (c.forces.cols() == c.x.cols()) points.push_back({"force", {c.forces.data(), std::size_t(c.forces.size())}, 3});
+    if (c.velocity.cols() == c.x.cols()) points.push_back({"velocity", {c.velocity.data(), std::size_t(c.velocity.size())}, 3});
+    const std::vector<io::SurfaceArray> cells{{"tension_major", t1, 1}, {"tension_minor", t2, 1}};
+    const std::string file = numbered("membrane", step, i);
+    io::write_surface_vtu(dir / file, {.positions = {c.x.data(), std::size_t(c.x.size())},
+                                       .elements = mesh.elements,
+                                       .order = mesh.order == membrane::Order::p2 ? io::SurfaceOrder::quadratic
+                                                                                   : io::SurfaceOrder::linear,
+                                       .point_data = points, .cell_data = cells});
+    series.add(t, dir / file, 1 + i);
+  }
+}
+
+void CapsuleSet::write_final(const std::filesystem::path& dir) const {
+  std::vector<double> all;
+  for (int i = 0; i < coupling_->num_capsules(); ++i) {
+    const auto& x = coupling_->capsule(i).x;
+    all.insert(all.end(), x.data(), x.data() + x.size());
+  }
+  io::write_nodes_csv(dir / "membrane_final.csv", all);
+}
+
+std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
+  std::vector<io::ExtraArray> extras;
+  for (int i = 0; i < coupling_->num_capsules(); ++i) {
+    const auto& x = coupling_->capsule(i).x;
+    extras.push_back({fmt::format("capsule_{}_positions", i), {std::size_t(x.cols()), 3}, {x.data(), x.data() + x.size()}});
+  }
+  return extras;
+}
+
+void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras) {
+  for (int i = 0; i < coupling_->num_capsules(); ++i) {
+    const std::string name = fmt::format("capsule_{}_positions", i);
+    auto& x = coupling_->capsule(i).x;
+    bool found = false;
+    for (const auto& e : extras)
+      if (e.name == name && e.values.size() == std::size_t(x.size())) {
+        std::copy(e.values.begin(), e.values.end(), x.data());
+        found = true;
+      }
+    if (!found) throw io::CheckpointError(fmt::format("checkpoint: no '{}' with {} nodes", name, x.cols()));
+  }
+}
+
+}  // namespace capsflow::app

@@ -1,0 +1,256 @@
+// The coupled time step (stages and stability: capsule_coupling.hpp).
+#include "ibm/capsule_coupling.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <variant>
+
+#include <fmt/format.h>
+
+#include "ibm/interpolate.hpp"
+#include "ibm/stencil.hpp"
+#include "membrane/errors.hpp"
+
+namespace capsflow::ibm {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+bool all_finite(const Eigen::Matrix3Xd& m, Eigen::Index& first_bad) {
+  for (Eigen::Index i = 0; i < m.cols(); ++i)
+    if (!m.col(i).allFinite()) {
+      first_bad = i;
+      return false;
+    }
+  return true;
+}
+
+template <int W>
+bool patch_exists(const tree::Tree<3>& t, int level, const std::array<std::int32_t, 3>& first) {
+  Index cells[W * W * W];
+  return find_patch<W>(t, level, first, cells) < 0;
+}
+
+bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x) {
+  return with_kernel(kind, [&]<Kernel K>(K) {
+    const int level = t.max_level();
+    const double h = t.cell_size(level);
+    for (Eigen::Index i = 0; i < x.cols(); ++i) {
+      const auto st = node_stencil<K>(t.options(), h, &x(0, i));
+      if (!patch_exists<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first})) return false;
+    }
+    return true;
+  });
+}
+
+}  // namespace
+
+CapsuleCoupling::CapsuleCoupling(fluid::NavierStokes<3>& ns, CouplingAdapt adapt) : ns_(ns), adapt_(adapt) {
+  if (adapt_.interval < 1)
+    throw std::invalid_argument(fmt::format("ibm: adapt interval {} must be >= 1", adapt_.interval));
+  if (adapt_.margin < 0) throw std::invalid_argument(fmt::format("ibm: adapt margin {} must be >= 0", adapt_.margin));
+  // The flow solver asks for its body force during its acceleration stage; between
+  // coupled steps (or after a failed spreading) there is none.
+  ns_.set_face_force([this](const tree::Tree<3>& t, fluid::FaceField<3>& faces) {
+    if (background_) background_(t, faces);
+    if (!force_ready_) return;
+    const auto t0 = Clock::now();
+    cell_to_face_force<3>(t, force_, faces, background_ ? SpreadMode::add : SpreadMode::assign);
+    face_seconds_ += seconds_since(t0);
+  });
+}
+
+CapsuleCoupling::~CapsuleCoupling() { ns_.set_face_force({}); }
+
+int CapsuleCoupling::add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd x, KernelChoice kernels) {
+  if (x.cols() != model.mesh().node_count())
+    throw std::invalid_argument(fmt::format("ibm: capsule positions have {} nodes, its mesh {}", x.cols(),
+                                            model.mesh().node_count()));
+  capsules_.push_back({.model = std::move(model), .x = std::move(x), .kernels = kernels});
+  return num_capsules() - 1;
+}
+
+double CapsuleCoupling::membrane_time_scale() const {
+  const auto& o = ns_.options();
+  const double mu = o.viscosity > 0.0 ? o.viscosity : 1.0 / o.Re;
+  const double dx = ns_.tree().cell_size(ns_.tree().max_level());
+  double gs = 0.0;
+  for (const Capsule& c : capsules_) gs = std::max(gs, std::visit([](const auto& l) { return l.gs; }, c.model.law()));
+  return gs > 0.0 ? mu * dx / gs : 0.0;
+}
+
+void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) const {
+  const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
+  if (!unstable) throw std::runtime_error(where);
+  throw std::runtime_error(fmt::format(
+      "{}. Likely cause: dt = {:.3g} above the membrane stability limit ~ Ca dx = mu dx / Gs = {:.3g} (the "
+      "coupling is explicit), or a capsule pressed against a wall",
+      where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, membrane_time_scale()));
+}
+
+bool CapsuleCoupling::touches_wall(const tree::Box<3>& b) const {
+  const auto& o = ns_.tree().options();
+  const double eps = 1e-9 * o.root_size;
+  for (int d = 0; d < 3; ++d) {
+    if (o.periodic[d]) continue;
+    const double lo = o.origin[d], hi = lo + o.roots[d] * o.root_size;
+    for (int side = 0; side < 2; ++side) {
+      const auto kind = ns_.options().boundaries[2 * d + side].kind;
+      if (kind != fluid::SideKind::wall && kind != fluid::SideKind::moving_wall) continue;
+      if (side == 0 ? b.lo[d] <= lo + eps : b.hi[d] >= hi - eps) return true;
+    }
+  }
+  return false;
+}
+
+int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
+  int r = 0;
+  for (const Capsule& c : capsules_) r = std::max(r, c.tags(b));
+  if (adapt_.wall_level > r && touches_wall(b)) r = adapt_.wall_level;
+  return r;
+}
+
+void CapsuleCoupling::build_tags() {
+  const tree::Tree<3>& t = ns_.tree();
+  for (Capsule& c : capsules_)
+    c.tags.build(t.options(), t.max_level(), band_cells(c.kernels.spread, c.kernels.interpolate, adapt_.margin), c.x);
+}
+
+bool CapsuleCoupling::stencils_ready() const {
+  const tree::Tree<3>& t = ns_.tree();
+  return std::all_of(capsules_.begin(), capsules_.end(), [&](const Capsule& c) {
+    return node_stencils_exist(t, c.kernels.spread, c.x) && node_stencils_exist(t, c.kernels.interpolate, c.x);
+  });
+}
+
+tree::AdaptCounts CapsuleCoupling::refine_initial() {
+  build_tags();
+  tree::AdaptOptions<3> opt{.min_level = adapt_.min_level,
+                            .required_level = [this](const tree::Box<3>& b) { return required_level(b); },
+                            .allow_coarsening = false};
+  tree::AdaptCounts total;
+  for (int pass = 0; pass < 64; ++pass) {
+    // An infinite tolerance: only forced refinement (the velocity may be anything).
+    const tree::AdaptCounts c = ns_.adapt(1e300, opt);
+    total.refined += c.refined;
+    total.leaves = c.leaves;
+    total.cells = c.cells;
+    if (c.refined == 0) return total;
+  }
+  throw std::runtime_error("capsule coupling: the initial refinement did not settle in 64 passes");
+}
+
+tree::AdaptCounts CapsuleCoupling::adapt() {
+  const auto t0 = Clock::now();
+  build_tags();
+  tree::AdaptOptions<3> opt{.min_level = adapt_.min_level,
+                            .required_level = [this](const tree::Box<3>& b) { return required_level(b); }};
+  tree::AdaptCounts counts = ns_.adapt(adapt_.velocity_tolerance, opt);
+  // One adapt refines a leaf by one level; the band moves less than its margin per step,
+  // so this rarely does anything, but a stencil must never miss a cell.
+  if (!stencils_ready()) {
+    const tree::AdaptCounts more = refine_initial();
+    counts.refined += more.refined;
+    counts.leaves = more.leaves;
+    counts.cells = more.cells;
+  }
+  times_.adapt += seconds_since(t0);
+  return counts;
+}
+
+void CapsuleCoupling::compute_forces(int step) {
+  const auto t0 = Clock::now();
+  for (int k = 0; k < num_capsules(); ++k) {
+    Capsule& c = capsules_[k];
+    try {
+      c.energy = c.model.compute_forces(c.x, c.forces);
+    } catch (const membrane::ElementError& e) {
+      fail(step, fmt::format("capsule {}: element {} is inverted or collapsed ({})", k, e.element(), e.what()));
+    }
+    Eigen::Index bad = 0;
+    if (!all_finite(c.forces, bad))
+      fail(step, fmt::format("capsule {}: the force on node {} is not finite", k, bad));
+  }
+  times_.membrane += seconds_since(t0);
+}
+
+void CapsuleCoupling::spread_forces(int step) {
+  const auto t0 = Clock::now();
+  const tree::Tree<3>& t = ns_.tree();
+  for (int k = 0; k < num_capsules(); ++k) {
+    Capsule& c = capsules_[k];
+    try {
+      spread(c.kernels.spread, t, c.x, c.forces, force_, workspace_, k == 0 ? SpreadMode::assign : SpreadMode::add);
+    } catch (const StencilError& e) {
+      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+    }
+  }
+  if (capsules_.empty())
+    for (auto& f : force_) f.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
+  force_ready_ = true;
+  times_.spreading += seconds_since(t0);
+}
+
+void CapsuleCoupling::move_nodes(int step, double dt) {
+  const auto t0 = Clock::now();
+  const tree::Tree<3>& t = ns_.tree();
+  const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+  const auto& o = t.options();
+  for (int k = 0; k < num_capsules(); ++k) {
+    Capsule& c = capsules_[k];
+    try {
+      interpolate(c.kernels.interpolate, t, u, c.x, c.velocity);
+    } catch (const StencilError& e) {
+      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+    }
+    Eigen::Index bad = 0;
+    if (!all_finite(c.velocity, bad))
+      fail(step, fmt::format("capsule {}: the velocity of node {} is not finite", k, bad));
+    // Check every new position before committing any: a failure keeps the last good X.
+    for (Eigen::Index i = 0; i < c.x.cols(); ++i)
+      for (int d = 0; d < 3; ++d) {
+        const double xn = c.x(d, i) + dt * c.velocity(d, i);
+        const double lo = o.origin[d], hi = lo + o.roots[d] * o.root_size;
+        if (!o.periodic[d] && !(xn > lo && xn < hi))
+          fail(step, fmt::format("capsule {}: node {} would leave the domain: {} = {:.6g} outside [{}, {}]", k, i,
+                                 "xyz"[d], xn, lo, hi));
+      }
+  }
+  for (Capsule& c : capsules_) c.x += dt * c.velocity;
+  times_.interpolation += seconds_since(t0);
+}
+
+CouplingStep CapsuleCoupling::step() {
+  const int step = static_cast<int>(steps_ + 1);
+  CouplingStep out;
+  compute_forces(step);
+  spread_forces(step);
+  face_seconds_ = 0.0;
+  const auto t0 = Clock::now();
+  try {
+    out.fluid = ns_.step();
+  } catch (...) {
+    force_ready_ = false;
+    throw;
+  }
+  force_ready_ = false;
+  last_dt_ = out.fluid.dt;
+  times_.fluid += seconds_since(t0) - face_seconds_;
+  times_.spreading += face_seconds_;
+  move_nodes(step, out.fluid.dt);
+  ++steps_;
+  if (adapt_.enabled && steps_ % adapt_.interval == 0) {
+    out.adapt = adapt();
+    out.adapted = true;
+  }
+  return out;
+}
+
+}  // namespace capsflow::ibm

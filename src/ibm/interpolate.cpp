@@ -1,0 +1,70 @@
+// Interpolating cell velocities at membrane nodes (operator: interpolate.hpp).
+#include "ibm/interpolate.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "ibm/stencil.hpp"
+
+namespace capsflow::ibm {
+
+namespace {
+constexpr Eigen::Index kParallelNodes = 256;
+}  // namespace
+
+template <Kernel K>
+void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double>, 3>& u,
+                 const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
+  constexpr int W = K::kSupport, W3 = W * W * W;
+  for (const auto& ud : u)
+    if (ud.size() != static_cast<std::size_t>(t.num_cells()))
+      throw std::invalid_argument(
+          fmt::format("ibm: interpolate from a field of {} cells, the tree has {}", ud.size(), t.num_cells()));
+  const Eigen::Index n = x.cols();
+  v.resize(3, n);
+  const int level = t.max_level();
+  const double h = t.cell_size(level);
+  const auto& options = t.options();
+  Eigen::Index bad = n;
+
+#pragma omp parallel for schedule(static) reduction(min : bad) if (n >= kParallelNodes)
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto st = node_stencil<K>(options, h, &x(0, i));
+    Index c[W3];
+    if (find_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c) >= 0) {
+      bad = std::min(bad, i);
+      continue;
+    }
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+    for (int kz = 0, s = 0; kz < W; ++kz)
+      for (int jy = 0; jy < W; ++jy) {
+        const double wyz = st[2].w[kz] * st[1].w[jy];
+        for (int ix = 0; ix < W; ++ix, ++s) {
+          const double wc = wyz * st[0].w[ix];
+          s0 += u[0][c[s]] * wc;
+          s1 += u[1][c[s]] * wc;
+          s2 += u[2][c[s]] * wc;
+        }
+      }
+    v(0, i) = s0;
+    v(1, i) = s1;
+    v(2, i) = s2;
+  }
+  if (bad < n) {
+    const auto st = node_stencil<K>(options, h, &x(0, bad));
+    Index c[W3];
+    require_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c, bad, &x(0, bad), "interpolation",
+                     K::kName);
+  }
+}
+
+template void interpolate<CosineKernel>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
+                                        const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+template void interpolate<HatKernel>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
+                                     const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+template void interpolate<Peskin4Kernel>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
+                                         const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+
+}  // namespace capsflow::ibm

@@ -1,0 +1,32 @@
+#pragma once
+// Interpolation (seed paper eq. 6): the velocity of a membrane node is the kernel-weighted
+// sum of the cell-centred velocities of the max-level cells around it,
+//   v(X) = sum_c u_c w(X, c),   w(X, c) = phi(sx) phi(sy) phi(sz),  s = (x_c - X)/dx,
+// with the normalised weights of stencil.hpp (the same stencil spreading uses). Every
+// stencil cell must be an active leaf of the tree's max level, else StencilError: a
+// coarser leaf's value would be a silently wrong weight.
+//
+// Parallel over nodes: each node gathers its own sum, so there is nothing to race on and
+// the result does not depend on the number of threads.
+#include <array>
+#include <span>
+
+#include <Eigen/Core>
+
+#include "ibm/kernels.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::ibm {
+
+// u: the three velocity components over the tree's cells (valid on the max-level leaves);
+// x: node positions; v is resized to 3 x nodes.
+template <Kernel K>
+void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double>, 3>& u,
+                 const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v);
+
+inline void interpolate(KernelKind kind, const tree::Tree<3>& t, const std::array<std::span<const double>, 3>& u,
+                        const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
+  with_kernel(kind, [&]<Kernel K>(K) { interpolate<K>(t, u, x, v); });
+}
+
+}  // namespace capsflow::ibm

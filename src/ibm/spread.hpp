@@ -1,0 +1,71 @@
+#pragma once
+// Spreading (seed paper eq. 4): point forces F(X) at the membrane nodes become a cell-centred
+// force density (force per unit volume) on the max-level cells around each node,
+//   f_c = sum_X F(X) w(X, c) / dx^3,   w(X, c) = phi(sx) phi(sy) phi(sz),  s = (x_c - X)/dx,
+// with the weights of stencil.hpp (normalised: sum_c w(X, c) = 1), so that
+// sum_c f_c dx^3 = sum_X F(X) to round-off. Every stencil cell must be an active leaf of
+// the tree's max level, else StencilError.
+//
+// Race-free and deterministic in parallel, with one barrier: first (parallel over nodes)
+// each node's stencil cells and weights go to a workspace, and the output is zeroed; then
+// each thread owns a contiguous range of the max level's cells and scans all nodes, adding
+// the contributions that fall in its range. Every cell thus receives its contributions in
+// node order whatever the number of threads: the result is bitwise independent of it. A
+// node whose stencil misses a thread's range costs that thread two comparisons.
+//
+// The solver takes forces on faces (fluid/faces.hpp): cell_to_face_force puts on each fine
+// face the mean of the two cells' values and restricts to coarse faces, which keeps
+// sum_faces f dx^3 = sum_cells f dx^3 away from walls (a wall carries the normal force
+// itself; the solver drops it there).
+#include <array>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fluid/faces.hpp"
+#include "ibm/kernels.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::ibm {
+
+using tree::Index;
+
+// A vector field on cells: three arrays over all of the tree's cell slots.
+using CellVector = std::array<std::vector<double>, 3>;
+
+// assign: f is resized to the tree and overwritten (zero away from the stencils);
+// add: the spread force is added to f, which must already span the tree.
+enum class SpreadMode : unsigned char { assign, add };
+
+// Reused between calls to avoid allocation.
+struct SpreadWorkspace {
+  std::vector<Index> cells;            // kSupport^3 per node
+  std::vector<double> weights;         // 3 kSupport per node: x, y, z axis weights
+  std::vector<Index> lowest, highest;  // per node: the range of its stencil's cell indices
+};
+
+// x: node positions, forces: point forces (3 x nodes each).
+template <Kernel K>
+void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
+            SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign);
+
+inline void spread(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
+                   const Eigen::Matrix3Xd& forces, CellVector& f, SpreadWorkspace& ws,
+                   SpreadMode mode = SpreadMode::assign) {
+  with_kernel(kind, [&]<Kernel K>(K) { spread<K>(t, x, forces, f, ws, mode); });
+}
+
+// faces[d] on every fine face: (f_d(lower cell) + f_d(upper cell)) / 2 (added to the face's
+// value with SpreadMode::add); coarse faces: the mean of their fine faces. f must be defined
+// (zero away from forces) on every cell slot.
+template <int D>
+void cell_to_face_force(const tree::Tree<D>& t, const std::array<std::vector<double>, D>& f,
+                        fluid::FaceField<D>& faces, SpreadMode mode = SpreadMode::assign) {
+  const double keep = mode == SpreadMode::add ? 1.0 : 0.0;
+  fluid::for_each_face<D>(t, [&](int d, Index lo, Index hi, double, const tree::Level<D>&) {
+    faces[d][hi] = keep * faces[d][hi] + 0.5 * (f[d][lo] + f[d][hi]);
+  });
+  fluid::restrict_faces<D>(t, faces);
+}
+
+}  // namespace capsflow::ibm

@@ -1,0 +1,101 @@
+#pragma once
+// The stencil of a membrane node: the W x W x W cells of one tree level (the max level: the
+// finest uniform patch around the node) whose centres lie within W/2 cells of the node, and
+// the kernel's 1D weights along each axis.
+//
+// Along an axis with origin o and cell size h, let u = (X - o)/h - 1/2 (the node in units
+// of cells, measured from the centre of cell 0), i0 = floor(u), r = u - i0 in [0, 1). The
+// stencil is the cells i0 - W/2 + 1 ... i0 + W/2, at offsets s_k = (k - W/2 + 1) - r from the
+// node (in cells, k = 0..W-1): every cell with phi(s) != 0 is in it. The weights are
+// divided by their sum, so that sum_k w_k = 1 to the last bit the division allows whatever
+// the kernel's analytic normalisation: spreading then conserves the total force exactly.
+//
+// Locating the cells: find_patch does one tree search per anchor cell of level L - k
+// (k >= 2 and 2^k >= W - 1, so a stencil spans at most 2 anchors per axis: at most 8
+// searches), descends from the anchors to the stencil's parents on level L - 1 (at most
+// (W/2 + 1)^3), and takes each parent's 8 contiguous children: no search per cell. Every
+// cell must be an active leaf of the level (never a halo cell, never a coarser leaf, never
+// outside a wall): otherwise the caller throws StencilError, since any fallback weight
+// would be wrong.
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "ibm/kernels.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::ibm {
+
+using tree::Index;
+
+template <int W>
+struct AxisStencil {
+  std::int32_t first = 0;     // integer coordinate (on the level's grid) of cell k = 0
+  std::array<double, W> w{};  // normalised weights
+};
+
+template <Kernel K>
+[[nodiscard]] inline AxisStencil<K::kSupport> axis_stencil(double x, double origin, double h) {
+  constexpr int W = K::kSupport;
+  const double u = (x - origin) / h - 0.5;
+  const double i0 = std::floor(u);
+  const double r = u - i0;
+  AxisStencil<W> a;
+  a.first = static_cast<std::int32_t>(i0) - (W / 2 - 1);
+  if constexpr (requires(double* w) { K::stencil_weights(r, w); }) {
+    K::stencil_weights(r, a.w.data());
+  } else {
+    for (int k = 0; k < W; ++k) a.w[k] = K::weight((k - W / 2 + 1) - r);
+  }
+  double sum = 0.0;
+  for (int k = 0; k < W; ++k) sum += a.w[k];
+  const double inv = 1.0 / sum;
+  for (int k = 0; k < W; ++k) a.w[k] *= inv;
+  return a;
+}
+
+// The three axis stencils of point x on level `level` of the tree.
+template <Kernel K>
+[[nodiscard]] inline std::array<AxisStencil<K::kSupport>, 3> node_stencil(const tree::TreeOptions<3>& o, double h,
+                                                                         const double* x) {
+  return {axis_stencil<K>(x[0], o.origin[0], h), axis_stencil<K>(x[1], o.origin[1], h),
+          axis_stencil<K>(x[2], o.origin[2], h)};
+}
+
+// Fills cells[i + W j + W^2 k] with the active leaf of `level` at first + (i, j, k)
+// (coordinates wrap across periodic sides). Returns -1 if all exist, else the first slot
+// whose cell is missing (then cells is partly filled).
+template <int W>
+int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells);
+
+// Thrown when a stencil cell is missing; names the node, its position, the cell and why.
+class StencilError : public std::runtime_error {
+ public:
+  StencilError(const std::string& message, std::int64_t node) : std::runtime_error(message), node_(node) {}
+  [[nodiscard]] std::int64_t node() const noexcept { return node_; }
+
+ private:
+  std::int64_t node_;
+};
+
+// Builds the StencilError for node `node` at x whose cell `ijk` of `level` is missing:
+// outside a wall (the membrane is within the kernel's reach of the wall), or not refined
+// to the level (the membrane-driven refinement did not run or its band is too narrow).
+[[noreturn]] void throw_missing_cell(const tree::Tree<3>& t, int level, const tree::Coords<3>& ijk,
+                                     std::int64_t node, const double* x, std::string_view operation,
+                                     std::string_view kernel);
+
+// Finds the patch of node `node` and throws StencilError naming its first missing cell.
+template <int W>
+void require_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells,
+                   std::int64_t node, const double* x, std::string_view operation, std::string_view kernel) {
+  const int slot = find_patch<W>(t, level, first, cells);
+  if (slot < 0) return;
+  const tree::Coords<3> ijk{first[0] + slot % W, first[1] + (slot / W) % W, first[2] + slot / (W * W)};
+  throw_missing_cell(t, level, ijk, node, x, operation, kernel);
+}
+
+}  // namespace capsflow::ibm

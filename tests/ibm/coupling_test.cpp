@@ -1,0 +1,324 @@
+// Coupled capsule runs on the seed channel shrunk to seconds: no spurious motion at rest,
+// exact translation with a uniform flow across periodic sides, the quick Stokes relaxation
+// of the seed's ellipsoid, and the blow-up and missing-refinement errors.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include <fmt/format.h>
+
+#include "coupling_support.hpp"
+
+namespace capsflow::ibm {
+namespace {
+
+using test::SeedRun;
+
+// Index of the mirror image of each node under x_d -> -x_d (the icosphere's coordinate
+// planes are symmetry planes of the mesh).
+std::vector<Eigen::Index> mirror_pairs(const Eigen::Matrix3Xd& x0, int d) {
+  std::vector<Eigen::Index> m(static_cast<std::size_t>(x0.cols()), -1);
+  for (Eigen::Index i = 0; i < x0.cols(); ++i) {
+    Eigen::Vector3d image = x0.col(i);
+    image[d] = -image[d];
+    for (Eigen::Index j = 0; j < x0.cols(); ++j)
+      if ((x0.col(j) - image).norm() < 1e-12) m[i] = j;
+  }
+  return m;
+}
+
+double mirror_error(const Eigen::Matrix3Xd& x, const std::vector<Eigen::Index>& m, int d) {
+  double worst = 0.0;
+  for (Eigen::Index i = 0; i < x.cols(); ++i) {
+    Eigen::Vector3d image = x.col(m[i]);
+    image[d] = -image[d];
+    worst = std::max(worst, (x.col(i) - image).norm());
+  }
+  return worst;
+}
+
+// An unstressed capsule (the reference sphere) in fluid at rest: its forces vanish to
+// round-off, so nothing may move.
+TEST(Coupling, UnstressedCapsuleAtRestStaysAtRest) {
+  // (dx = 1/16: at dx = 1/8 the cosine stencil of the sphere's equator reaches the walls.)
+  SeedRun r{.max_level = 5, .ellipsoid = false};
+  auto s = test::seed_setup(r);
+  const Eigen::Matrix3Xd x0 = s.coupling->capsule(0).x;
+  double worst_u = 0.0;
+  for (int k = 0; k < 30; ++k) {
+    const auto st = s.coupling->step();
+    EXPECT_TRUE(st.fluid.converged);
+    worst_u = std::max(worst_u, test::max_velocity(*s.ns));
+  }
+  const double moved = membrane::max_node_distance(s.coupling->capsule(0).x, x0);
+  const double fmax = s.coupling->capsule(0).forces.colwise().norm().maxCoeff();
+  std::printf("at rest, 30 steps: max |F| %.2e, max |u| %.2e, max node displacement %.2e\n", fmax, worst_u, moved);
+  EXPECT_LT(fmax, 1e-12);
+  EXPECT_LT(worst_u, 1e-12);
+  EXPECT_LT(moved, 1e-14);
+}
+
+// A prestressed capsule (the reference sphere inflated by 2 %) in fluid at rest: the exact
+// state is rest with a pressure jump across the membrane. The spread force is a sum of
+// smoothed normal point forces, not an exact discrete gradient, so the IBM leaves small
+// spurious currents; they must stay small and must not move the capsule.
+TEST(Coupling, PrestressedCapsuleAtRestBarelyMoves) {
+  SeedRun r{.max_level = 5, .ellipsoid = false};
+  auto s = test::seed_setup(r);
+  Capsule& c = s.coupling->capsule(0);
+  c.x = membrane::inflate(c.model.mesh().nodes, 1.02, Eigen::Vector3d::Zero());
+  const Eigen::Matrix3Xd x0 = c.x;
+  const auto d0 = membrane::shape_diagnostics(c.model.mesh(), x0);
+  double worst_u = 0.0;
+  for (int k = 0; k < 50; ++k) {
+    (void)s.coupling->step();
+    worst_u = std::max(worst_u, test::max_velocity(*s.ns));
+  }
+  const auto d = membrane::shape_diagnostics(c.model.mesh(), c.x);
+  const double fmax = c.forces.colwise().norm().maxCoeff();
+  std::printf("prestressed at rest, 50 steps: max |F| %.2e, max |u| %.2e (last %.2e), max node displacement %.2e, "
+              "centroid %.1e, volume_rel %.2e\n",
+              fmax, worst_u, test::max_velocity(*s.ns), membrane::max_node_distance(c.x, x0), d.centroid.norm(),
+              (d.volume - d0.volume) / d0.volume);
+  // Scales: the isotropic Skalak tension T = Gs [l^2 - 1 + C l^2 (l^4 - 1)] = 2.52 at
+  // l = 1.02, velocity scale T / mu = 2.52; measured max |u| = 0.032 (1.3 % of it), node
+  // displacement 1.3e-3 (0.02 dx), volume leak 0.12 % over t = 0.05.
+  const double l2 = 1.02 * 1.02, tension = shear_modulus(r.Ca, r.Re) * (l2 - 1 + l2 * (l2 * l2 - 1));
+  EXPECT_LT(worst_u, 0.02 * tension * r.Re);
+  EXPECT_LT(membrane::max_node_distance(c.x, x0), 0.05 / 16);
+  EXPECT_LT(d.centroid.norm(), 1e-6);
+  EXPECT_LT(std::abs(d.volume - d0.volume) / d0.volume, 2e-3);
+}
+
+// A uniform flow in a triply periodic box carries an unstressed capsule with it, across
+// the periodic sides (unwrapped positions, wrapped stencils, tags and adaptation moving
+// with it), without deforming: the interpolation of a uniform field is exact (weights sum
+// to 1) and the flow stays uniform (the spread force is zero to round-off).
+TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
+  tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
+                   .periodic = {true, true, true}, .max_level = 4});
+  t.refine_to([](const tree::Box<3>&) { return 2; });
+  fluid::FlowOptions<3> o{.Re = 1.0, .stokes = false, .dt = 0.01};
+  for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
+  fluid::NavierStokes<3> ns(t, o);
+  CapsuleCoupling cc(ns, {.enabled = true, .velocity_tolerance = 1e-2, .min_level = 2});
+  membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.4}),
+                                {.gs = shear_modulus(0.1, 1.0)});
+  const Eigen::Matrix3Xd x0 = model.mesh().nodes.colwise() + Eigen::Vector3d(0.5, 0.0, -0.3);
+  cc.add_capsule(std::move(model), x0);
+  (void)cc.refine_initial();
+  const Eigen::Vector3d u(1.5, -0.5, 0.25);
+  for (Index c = 0; c < t.num_cells(); ++c)
+    for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+  for (int k = 0; k < 60; ++k) (void)cc.step();
+  const Eigen::Matrix3Xd expected = x0.colwise() + u * ns.time();
+  const double error = membrane::max_node_distance(cc.capsule(0).x, expected);
+  std::printf("uniform flow: t = %.2f, centre moved by (%.2f, %.2f, %.2f), max node error %.2e\n", ns.time(),
+              u[0] * ns.time(), u[1] * ns.time(), u[2] * ns.time(), error);
+  EXPECT_GT(cc.capsule(0).x.row(0).maxCoeff(), 1.0);  // crossed x_hi
+  EXPECT_LT(error, 1e-12);
+}
+
+// A background body force (here uniform, in a periodic box) acts together with the
+// capsules' force: the fluid accelerates uniformly, u = g t, and an unstressed capsule
+// follows it: X = X0 + g dt^2 n (n + 1) / 2 after n steps.
+TEST(Coupling, BackgroundForceActsWithTheCapsules) {
+  tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
+                   .periodic = {true, true, true}, .max_level = 4});
+  t.refine_to([](const tree::Box<3>&) { return 2; });
+  fluid::FlowOptions<3> o{.Re = 1.0, .stokes = true, .dt = 0.01};
+  for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
+  fluid::NavierStokes<3> ns(t, o);
+  CapsuleCoupling cc(ns, {.enabled = true, .min_level = 2});
+  membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.4}), {.gs = 10.0});
+  const Eigen::Matrix3Xd x0 = model.mesh().nodes;
+  cc.add_capsule(std::move(model), x0);
+  (void)cc.refine_initial();
+  const Eigen::Vector3d g(0.5, 0.0, -1.0);
+  cc.set_background_force([&](const tree::Tree<3>&, fluid::FaceField<3>& faces) {
+    for (int d = 0; d < 3; ++d) std::fill(faces[d].begin(), faces[d].end(), g[d]);
+  });
+  const int n = 20;
+  for (int k = 0; k < n; ++k) (void)cc.step();
+  const Eigen::Matrix3Xd expected = x0.colwise() + g * (0.01 * 0.01 * n * (n + 1) / 2.0);
+  EXPECT_LT(membrane::max_node_distance(cc.capsule(0).x, expected), 1e-12);
+  EXPECT_NEAR(test::max_velocity(ns), g.norm() * ns.time(), 1e-12);
+}
+
+struct Relaxation {
+  std::vector<double> t, d12, volume_rel, centroid, mirror, roundness;
+  double seconds = 0.0;
+  StageTimes stages;
+  Index max_leaves = 0;
+};
+
+Relaxation relax(const SeedRun& r, int steps) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto s = test::seed_setup(r);
+  CapsuleCoupling& cc = *s.coupling;
+  const auto& mesh = cc.capsule(0).model.mesh();
+  const auto my = mirror_pairs(mesh.nodes, 1), mz = mirror_pairs(mesh.nodes, 2);
+  const double v0 = membrane::shape_diagnostics(mesh, mesh.nodes).volume;  // the reference sphere
+  Relaxation out;
+  auto record = [&](double time) {
+    const auto d = membrane::shape_diagnostics(mesh, cc.capsule(0).x);
+    out.t.push_back(time);
+    out.d12.push_back(d.d12);
+    out.volume_rel.push_back((d.volume - v0) / v0);
+    out.centroid.push_back(d.centroid.norm());
+    out.mirror.push_back(std::max(mirror_error(cc.capsule(0).x, my, 1), mirror_error(cc.capsule(0).x, mz, 2)));
+    out.roundness.push_back(std::abs(d.semi_axes[1] - d.semi_axes[2]) / d.semi_axes[1]);
+  };
+  record(0.0);
+  for (int k = 0; k < steps; ++k) {
+    const auto st = cc.step();
+    EXPECT_TRUE(st.fluid.converged) << "step " << k + 1;
+    record(st.fluid.t);
+    out.max_leaves = std::max(out.max_leaves, s.tree->num_leaves());
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.stages = cc.times();
+  return out;
+}
+
+// The seed's relaxation case on a coarse tree: the 4 x 1 x 1 channel, Ca = 0.05, Re = 1
+// (unsteady Stokes), Skalak C = 1, the ellipsoid (2a, a/sqrt2, a/sqrt2), a = 0.85, max level
+// 5 (dx = 1/16), dt = 1e-3 (a third of the stability scale Ca dx = 3.1e-3), 300 steps.
+// Mesh: 2562 P2 nodes (h/dx = 1.1 on the sphere, the seed's ideal ratio being 1.25). The
+// 642-node mesh is too coarse for dx = 1/16 (h/dx = 2.2, 4.5 along the stretched axis, where
+// the seed already calls h/dx = 2.5 too coarse): its membrane leaks, D12 first rises by
+// 3e-4 over 4 steps and the volume drops by 0.9 % by t = 0.3.
+TEST(Coupling, QuickStokesRelaxation) {
+  const SeedRun r{.max_level = 5, .dt = 1e-3, .mesh_level = 4};
+  const Relaxation run = relax(r, 300);
+  std::printf("quick relaxation: %.1f s (membrane %.2f, spreading %.2f, fluid %.2f, interpolation %.2f, adapt %.2f)\n",
+              run.seconds, run.stages.membrane, run.stages.spreading, run.stages.fluid, run.stages.interpolation,
+              run.stages.adapt);
+  double worst_volume = 0.0, worst_centroid = 0.0, worst_mirror = 0.0, worst_round = 0.0;
+  for (std::size_t k = 0; k < run.t.size(); ++k) {
+    if (k % 50 == 0)
+      std::printf("  t = %.3f  D12 = %.5f  volume_rel = %+.2e  |centroid| = %.1e  mirror = %.1e\n", run.t[k],
+                  run.d12[k], run.volume_rel[k], run.centroid[k], run.mirror[k]);
+    if (k > 0) {
+      EXPECT_LT(run.d12[k], run.d12[k - 1]) << "D12 must decrease at every step: step " << k;
+    }
+    worst_volume = std::max(worst_volume, std::abs(run.volume_rel[k]));
+    worst_centroid = std::max(worst_centroid, run.centroid[k]);
+    worst_mirror = std::max(worst_mirror, run.mirror[k]);
+    worst_round = std::max(worst_round, run.roundness[k]);
+  }
+  std::printf("  max |volume_rel| %.2e, max |centroid| %.1e, max mirror error %.1e, max |L2 - L3|/L2 %.1e\n",
+              worst_volume, worst_centroid, worst_mirror, worst_round);
+  // It relaxes: from the seed's 0.478 to below 0.2 by t = 0.3.
+  EXPECT_NEAR(run.d12.front(), 0.4776, 1e-3);
+  EXPECT_LT(run.d12.back(), 0.2);
+  // The channel is symmetric about y = 0 and z = 0 and so are the mesh and the tree: the
+  // capsule stays centred and mirror-symmetric node by node, up to the multigrid
+  // tolerance (1e-6; the smoother's ordering is not symmetric). Along x the inlet wall
+  // and the outflow differ, 3.4 half-lengths away: the drift is of the same tiny order.
+  EXPECT_LT(worst_centroid, 1e-5);
+  EXPECT_LT(worst_mirror, 1e-5);
+  // The cross-section stays round: only the icosahedral mesh distinguishes y from z.
+  EXPECT_LT(worst_round, 2e-3);
+  // Volume: the seed's acceptance criterion (1 %, for dx = 1/32 to t = 10) holds here on a
+  // grid twice as coarse: the IBM's volume error comes from the interpolated velocity not
+  // being divergence-free, O(dx^2) (0.55 % here, 2.2 % at dx = 1/8 with the 642-node mesh).
+  EXPECT_LT(worst_volume, 1e-2);
+}
+
+// The membrane-driven adaptation changes the answer only within the wavelet tolerance: the
+// same case (100 steps, to t = 0.1) on the uniform level-5 grid and on the adaptive one.
+// The wavelet tolerance 1e-2 on velocities of about 5 allows relative velocity errors of
+// order 2e-3 away from the membrane band (which is at the max level in both), so D12, an
+// integral of the velocity over the relaxation (0.478 -> 0.355 here), may differ by a few
+// 1e-4: the bound is 1e-3.
+TEST(Coupling, AdaptiveRelaxationMatchesUniform) {
+  const SeedRun adaptive{.max_level = 5, .dt = 1e-3, .mesh_level = 4};
+  SeedRun uniform = adaptive;
+  uniform.min_level = uniform.adapt.min_level = 5;
+  const Relaxation a = relax(adaptive, 100), u = relax(uniform, 100);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < a.d12.size(); ++k) worst = std::max(worst, std::abs(a.d12[k] - u.d12[k]));
+  std::printf("adaptive vs uniform to t = 0.1: max |dD12| %.2e (D12 %.5f vs %.5f), leaves <= %d vs %d, %.1f s vs %.1f s\n",
+              worst, a.d12.back(), u.d12.back(), a.max_leaves, u.max_leaves, a.seconds, u.seconds);
+  EXPECT_LT(worst, 1e-3);
+  EXPECT_EQ(u.max_leaves, 4 << 15);
+  EXPECT_LT(a.max_leaves, u.max_leaves * 2 / 3);
+}
+
+// Steps far above the membrane stability scale make the explicit coupling blow up; the run
+// stops with the step, the time and the likely cause, and the positions of the last good step.
+TEST(Coupling, BlowUpIsReportedWithItsLikelyCause) {
+  SeedRun r{.max_level = 4, .dt = 2.5e-2, .mesh_level = 3};
+  auto s = test::seed_setup(r);
+  Eigen::Matrix3Xd last_good = s.coupling->capsule(0).x;
+  std::string message;
+  int steps = 0;
+  try {
+    for (; steps < 50; ++steps) {
+      (void)s.coupling->step();
+      last_good = s.coupling->capsule(0).x;
+    }
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+  }
+  std::printf("%s\n", message.c_str());
+  ASSERT_FALSE(message.empty()) << "no blow-up in 50 steps of dt = 4 Ca dx";
+  using ::testing::HasSubstr;
+  EXPECT_THAT(message, HasSubstr(fmt::format("step {} (t = ", steps + 1)));
+  EXPECT_THAT(message, HasSubstr("membrane stability limit ~ Ca dx"));
+  EXPECT_EQ(membrane::max_node_distance(s.coupling->capsule(0).x, last_good), 0.0);
+}
+
+// Without the membrane-driven refinement the first spreading finds no max-level cells.
+TEST(Coupling, MissingRefinementIsReported) {
+  SeedRun r{.max_level = 4, .mesh_level = 3};
+  tree::Tree<3> t({.roots = {4, 1, 1}, .root_size = 2.0, .origin = {-4, -1, -1}, .max_level = 4});
+  t.refine_to([](const tree::Box<3>&) { return 2; });
+  fluid::NavierStokes<3> ns(t, test::seed_flow(r));
+  CapsuleCoupling cc(ns);
+  membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.85}), {.gs = 20});
+  Eigen::Matrix3Xd x = membrane::seed_ellipsoid(model.mesh().nodes, Eigen::Vector3d::Zero());
+  cc.add_capsule(std::move(model), std::move(x));
+  EXPECT_FALSE(cc.stencils_ready());
+  try {
+    (void)cc.step();
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("step 1 (t = 0): capsule 0: ibm: spreading with the cosine kernel"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("refine to level 4 around the membrane"));
+  }
+  (void)cc.refine_initial();
+  EXPECT_TRUE(cc.stencils_ready());
+}
+
+// The forced levels: the membrane band at the max level, walls (not the outflow) at theirs.
+TEST(Coupling, RequiredLevelsOfWallsAndMembrane) {
+  SeedRun r{.max_level = 4, .mesh_level = 3};
+  tree::Tree<3> t({.roots = {4, 1, 1}, .root_size = 2.0, .origin = {-4, -1, -1}, .max_level = 4});
+  fluid::NavierStokes<3> ns(t, test::seed_flow(r));
+  CapsuleCoupling cc(ns, {.wall_level = 3});
+  cc.add_capsule(membrane::MembraneModel(membrane::make_icosphere({.level = 3, .radius = 0.5}), {.gs = 20}),
+                 membrane::make_icosphere({.level = 3, .radius = 0.5}).nodes);
+  (void)cc.refine_initial();
+  const double h = 2.0 / 16;
+  auto box = [&](double x, double y, double z, double size) {
+    return tree::Box<3>{{x, y, z}, {x + size, y + size, z + size}};
+  };
+  EXPECT_EQ(cc.required_level(box(2.0, -1.0, 0.0, 2 * h)), 3);      // on the wall y_lo
+  EXPECT_EQ(cc.required_level(box(-4.0, 0.25, 0.25, 2 * h)), 3);     // on the inlet wall x_lo
+  EXPECT_EQ(cc.required_level(box(4.0 - 2 * h, 0.25, 0.25, 2 * h)), 0);  // the outflow x_hi
+  EXPECT_EQ(cc.required_level(box(0.5, 0.0, 0.0, h)), 4);            // on the membrane
+  EXPECT_EQ(cc.required_level(box(2.0, 0.0, 0.0, h)), 0);            // neither
+  // After the initial refinement every wall leaf is at level 3 at least.
+  for (const Index c : t.leaves()) {
+    const tree::Box<3> b = t.box(c);
+    if (b.lo[1] <= -1.0 + 1e-12) {
+      ASSERT_GE(t.level_of(c), 3);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace capsflow::ibm
