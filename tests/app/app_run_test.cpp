@@ -17,7 +17,7 @@ namespace {
 
 using namespace testing;
 
-std::vector<std::vector<std::string>> rows(const fs::path& csv) {
+std::vector<std::vector<std::string>> rows_of(const fs::path& csv) {
   std::vector<std::vector<std::string>> out;
   std::istringstream in(slurp(csv));
   std::string line;
@@ -57,7 +57,7 @@ TEST(AppCases, ShortRunsWriteEveryOutput) {
     // The written case parses back to the one that ran.
     EXPECT_NO_THROW((void)io::parse_case(dir / "out" / "case.toml"));
     // diagnostics.csv: header + one row per step.
-    const auto table = rows(dir / "out" / "diagnostics.csv");
+    const auto table = rows_of(dir / "out" / "diagnostics.csv");
     ASSERT_EQ(table.size(), 5u);
     EXPECT_THAT(table[0], ::testing::ElementsAre("step", "t", "dt", "cells", "max_level", "D12", "D12_bbox", "area_rel",
                                                  "volume_rel", "vmax", "mg_cycles", "wall_s"));
@@ -81,7 +81,7 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
                            "/cavity_2d.toml --quiet --set time.t_end=0.2 --set output.checkpoint=true "
                            "--set output.checkpoint_interval=10 --set adapt.interval=3 --set output.interval=5 ";
   ASSERT_EQ(capsflow(base + "--out " + (dir / "full").string(), dir).status, 0);
-  const auto full = rows(dir / "full" / "diagnostics.csv");
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
   ASSERT_GT(full.size(), 20u);
   // The run "killed" after step 10: its directory as it was then is the full run's with
   // the checkpoint of step 10; a restart must rewrite the rest identically.
@@ -89,10 +89,50 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
   const auto again = capsflow(base + "--out " + (dir / "part").string() + " --restart " +
                                   (dir / "part" / "checkpoint_000010.h5").string(), dir);
   ASSERT_EQ(again.status, 0) << again.err;
-  const auto resumed = rows(dir / "part" / "diagnostics.csv");
+  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
   ASSERT_EQ(resumed.size(), full.size());
   for (std::size_t i = 1; i < full.size(); ++i)
     for (std::size_t c = 0; c + 1 < full[i].size(); ++c) ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+}
+
+}  // namespace
+}  // namespace capsflow::app
+
+namespace capsflow::app {
+namespace {
+
+using namespace testing;
+
+// The quick seed case, a few steps: membrane snapshots and final positions are written, the
+// membrane columns are finite, and a restart with a capsule repeats the run exactly.
+TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
+  const fs::path dir = scratch("capsule");
+  const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 "
+                           "--set time.t_end=0.04 --set output.interval=5 --set output.diagnostics_interval=1 "
+                           "--set output.checkpoint=true --set output.checkpoint_interval=5 ";
+  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* f : {"membrane_000000.vtu", "membrane_000010.vtu", "membrane_final.csv", "checkpoint_000005.h5"})
+    EXPECT_TRUE(fs::exists(dir / "full" / f)) << f;
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
+  ASSERT_EQ(full.size(), 11u);
+  const double d12_first = std::stod(full[1][5]), d12_last = std::stod(full[10][5]);
+  EXPECT_GT(d12_first, 0.4);  // the seed ellipsoid starts at 0.4776
+  EXPECT_LT(d12_last, d12_first);
+  EXPECT_LT(std::abs(std::stod(full[10][8])), 0.02) << "volume_rel";
+  const auto nodes = rows_of(dir / "full" / "membrane_final.csv");
+  EXPECT_EQ(nodes.size(), 643u);  // header + 642 nodes
+  // Restart from step 5 in a copy of the directory: rows 6..10 are rewritten identically.
+  fs::copy(dir / "full", dir / "part", fs::copy_options::recursive);
+  const auto again = capsflow(base + "--out " + (dir / "part").string() + " --restart " +
+                                  (dir / "part" / "checkpoint_000005.h5").string(), dir);
+  ASSERT_EQ(again.status, 0) << again.err;
+  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
+  ASSERT_EQ(resumed.size(), full.size());
+  for (std::size_t i = 1; i < full.size(); ++i)
+    for (std::size_t c = 0; c + 1 < full[i].size(); ++c) ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+  EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
 }
 
 }  // namespace
