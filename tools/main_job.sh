@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job: installs the dependencies, builds capsflow, runs the quick version of the
 # seed paper's case (a capsule pre-deformed into an ellipsoid relaxing in a square channel,
-# Stokes flow; about 30 s on one core) and plots its Taylor parameter D12(t).
+# Stokes flow; about a minute on one core) and plots its Taylor parameter D12(t).
 # Leaves out/relaxation_quick/: series.pvd with fluid_*.vtu and membrane_*.vtu (open
 # series.pvd in ParaView), diagnostics.csv, membrane_final.csv and relaxation.png.
 set -euo pipefail
