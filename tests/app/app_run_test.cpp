@@ -108,7 +108,7 @@ using namespace testing;
 TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   const fs::path dir = scratch("capsule");
   const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
-                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 "
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 --set capsule[0].nodes=642 "
                            "--set time.t_end=0.04 --set output.interval=5 --set output.diagnostics_interval=1 "
                            "--set output.checkpoint=true --set output.checkpoint_interval=5 ";
   const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
