@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -156,7 +157,15 @@ class FlowRun {
     }
     progress_.finish();
     if (c.output.cells_csv) write_cells_csv();
-    if (capsules_) capsules_->write_final(out_);
+    if (capsules_) {
+      capsules_->write_final(out_);
+      if (!request_.quiet) {  // where the time went, per step
+        const auto& s = capsules_->coupling().times();
+        const double n = double(std::max<long>(1, capsules_->coupling().steps()));
+        std::fprintf(stderr, "time per step: membrane %.2f ms, spreading %.2f ms, fluid %.2f ms, interpolation %.2f ms, adapt %.2f ms\n",
+                     1e3 * s.membrane / n, 1e3 * s.spreading / n, 1e3 * s.fluid / n, 1e3 * s.interpolation / n, 1e3 * s.adapt / n);
+      }
+    }
   }
 
  private:
