@@ -55,21 +55,34 @@ void H5Io::string_attribute(hid_t loc, const std::string& name, const std::strin
   attribute(loc, name, type.get(), {}, value.data());
 }
 
+namespace {
+
+// Takes ownership of a dataspace; sizes `a` (shape and values) from it. False if the
+// dataspace is unreadable.
+template <class T>
+bool sized_from(hid_t space_id, Array<T>& a) {
+  const Handle space(space_id, H5Sclose);
+  if (!space.valid()) return false;
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) return false;
+  a.shape.resize(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(space.get(), a.shape.data(), nullptr);
+  std::size_t n = 1;
+  for (const hsize_t d : a.shape) n *= d;
+  a.values.resize(n);
+  return true;
+}
+
+}  // namespace
+
 template <class T>
 Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::string& path) const {
   if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
   const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
   if (!set.valid()) fail(fmt::format("{} is not a readable dataset", path));
-  const Handle space(H5Dget_space(set.get()), H5Sclose);
-  const int rank = H5Sget_simple_extent_ndims(space.get());
-  if (rank < 0) fail(fmt::format("{}: unreadable shape", path));
   Array<T> a;
-  a.shape.resize(static_cast<std::size_t>(rank));
-  H5Sget_simple_extent_dims(space.get(), a.shape.data(), nullptr);
-  std::size_t n = 1;
-  for (const hsize_t s : a.shape) n *= s;
-  a.values.resize(n);
-  if (n > 0 && H5Dread(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()) < 0)
+  if (!sized_from(H5Dget_space(set.get()), a)) fail(fmt::format("{}: unreadable shape", path));
+  if (!a.values.empty() && H5Dread(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()) < 0)
     fail(fmt::format("cannot read dataset {} (corrupt file?)", path));
   return a;
 }
@@ -78,15 +91,9 @@ template <class T>
 Array<T> H5Io::read_attribute(hid_t loc, const std::string& name, hid_t type, const std::string& path) const {
   if (H5Aexists(loc, name.c_str()) <= 0) fail(fmt::format("missing attribute {}", path));
   const Handle attr(H5Aopen(loc, name.c_str(), H5P_DEFAULT), H5Aclose);
-  const Handle space(H5Aget_space(attr.get()), H5Sclose);
-  const int rank = H5Sget_simple_extent_ndims(space.get());
-  if (!attr.valid() || rank < 0) fail(fmt::format("{} is not a readable attribute", path));
   Array<T> a;
-  a.shape.resize(static_cast<std::size_t>(rank));
-  H5Sget_simple_extent_dims(space.get(), a.shape.data(), nullptr);
-  std::size_t n = 1;
-  for (const hsize_t s : a.shape) n *= s;
-  a.values.resize(n);
+  if (!attr.valid() || !sized_from(H5Aget_space(attr.get()), a))
+    fail(fmt::format("{} is not a readable attribute", path));
   if (H5Aread(attr.get(), type, a.values.data()) < 0) fail(fmt::format("cannot read attribute {}", path));
   return a;
 }
