@@ -65,7 +65,6 @@ double bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, d
 
 template <int D>
 void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
-  sync_velocity();
   for (int d = 0; d < D; ++d) tree_.sync(g_[d]);
   std::array<std::span<const double>, D> u, g;
   for (int d = 0; d < D; ++d) u[d] = tree_.values(u_[d]);
