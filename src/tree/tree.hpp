@@ -74,6 +74,14 @@ inline constexpr auto kRowInGroup = [] {
   return pos;
 }();
 
+// Face neighbour k = 2d + side of child b of the sibling group starting at `first`, whose
+// Level::group_face row is `gf`: a sibling when bit d of b differs from side, else the
+// mirror child of the adjacent group. With b and k constants it folds to one add.
+constexpr Index group_neighbor(Index first, const Index* gf, int b, int k) {
+  const int d = k >> 1;
+  return (child_bit(b, d) == (k & 1) ? gf[k] : first) + (b ^ (1 << d));
+}
+
 // The cells of one level and their topology. Indices stored here are global.
 template <int D>
 struct Level {
@@ -82,6 +90,12 @@ struct Level {
   std::vector<Key> keys;                 // active then halo cells
   std::vector<Index> face;               // n_active rows of kFaces<D> neighbours
   std::vector<Index> diag;               // n_active rows of kDiagonals<D> neighbours
+  // Levels >= 1, one row of kFaces<D> per sibling group (active cells come in groups of
+  // 2^D, the children of one parent): the first slot of the group across each face of the
+  // parent. Child b's neighbour across face (d, side) is then a sibling, g + (b ^ 2^d), when
+  // bit d of b differs from side, else group_face[side] + (b ^ 2^d): stencil sweeps read
+  // 2D indices per group instead of 2D per cell (see group_neighbor).
+  std::vector<Index> group_face;
   std::vector<Index> first_child;        // every slot: first of 2^D contiguous children, or kNone
   // Active cells: 0 for a parent, 1 for a leaf, 2 for a leaf with a parent among its face
   // neighbours (a resolution jump to a finer region: fluxes there need the fine side).
@@ -114,6 +128,7 @@ struct Level {
     return slot < kFaces<D> ? face[r * kFaces<D> + slot] : diag[r * kDiagonals<D> + slot - kFaces<D>];
   }
   const Index* face_row(Index c) const { return face.data() + row_of(c - base) * kFaces<D>; }
+  const Index* group_face_row(Index group) const { return group_face.data() + static_cast<std::size_t>(group) * kFaces<D>; }
   bool is_leaf(Index c) const { return leaf[c - base] != 0; }
   static constexpr std::uint8_t kLeaf = 1, kLeafNextToFiner = 2;
 };
@@ -209,6 +224,10 @@ class Tree {
   void sync(std::span<double> v, const BoundaryConditions<D>& bc,
             Prolongation p = Prolongation::linear) const;
   void sync(FieldId f);
+  // sync for readers of the leaves and their neighbours only (the multigrid's residual):
+  // parents are restricted only on the levels a halo prolongation reads (none on a
+  // uniform tree); the other parents keep stale values.
+  void sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const;
 
   // --- adaptation
   // Normalised wavelet error max_f |v_f - prolongation from the parent| / tol_f for every

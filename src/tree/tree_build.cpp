@@ -260,6 +260,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
   nx.keys.resize(nx.n_active + nx.n_halo);
   nx.face.resize(static_cast<std::size_t>(nx.n_active) * kFaces<D>);
   nx.diag.resize(static_cast<std::size_t>(nx.n_active) * kDiagonals<D>);
+  nx.group_face.resize(static_cast<std::size_t>(parents) * kFaces<D>);
   nx.first_child.assign(nx.size(), kNone);
   nx.leaf.resize(nx.n_active);
   nx.old_index.resize(nx.n_active);
@@ -325,6 +326,9 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
       block[q] = firsts[T.code_of_block[q]] + T.child_of_block[q];
 
     const Index row0 = cur.first_child[i] - nx_base;
+    const Index* parent_face = cur.face_row(parent);
+    for (int k = 0; k < kFaces<D>; ++k)
+      nx.group_face[static_cast<std::size_t>(row0 / C) * kFaces<D> + k] = cur.first_child[parent_face[k] - cur_base];
     Index old_first = kNone;
     if (has_old && cur.old_index[i] != kNone) {
       const Index o = cur.old_index[i] - old.base;
@@ -413,7 +417,7 @@ std::size_t Tree<D>::topology_bytes() const {
   std::size_t bytes = leaves_.size() * sizeof(Index) + root_index_.size() * sizeof(Index);
   for (int l = 0; l <= depth_; ++l) {
     const Level<D>& lv = levels_[l];
-    bytes += lv.keys.size() * sizeof(Key) + lv.face.size() * sizeof(Index) +
+    bytes += lv.keys.size() * sizeof(Key) + lv.face.size() * sizeof(Index) + lv.group_face.size() * sizeof(Index) +
              lv.diag.size() * sizeof(Index) + lv.first_child.size() * sizeof(Index) +
              lv.leaf.size() + lv.halo_parent.size() * sizeof(Index) +
              lv.ghost_source.size() * sizeof(Index) + lv.ghost_side.size() +

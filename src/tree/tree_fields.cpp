@@ -151,6 +151,23 @@ void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolong
 }
 
 template <int D>
+void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
+  // A halo cell of level l is prolonged from level l - 1, whose parents average the
+  // levels below: restrict from the deepest level up to the coarsest one a halo reads.
+  int coarsest_read = depth_;
+  for (int l = 1; l <= depth_; ++l)
+    if (levels_[l].n_halo > 0) {
+      coarsest_read = l - 1;
+      break;
+    }
+  for (int l = depth_ - 1; l >= coarsest_read; --l) restrict_level(l, v);
+  for (int l = 0; l <= depth_; ++l) {
+    fill_halo(l, v, p);
+    fill_ghosts(l, v, bc);
+  }
+}
+
+template <int D>
 void Tree<D>::sync(FieldId f) {
   const FieldSpec<D>& spec = fields_.at(f);
   sync(data_[f], spec.bc, spec.prolongation);
@@ -204,6 +221,7 @@ template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
+template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
 template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
@@ -212,6 +230,7 @@ template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);
+template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::transfer_fields(const std::vector<Level<3>>&, int, Index);
 
 }  // namespace capsflow::tree

@@ -113,7 +113,17 @@ void check_invariants(const Tree<D>& t) {
         }
       }
     }
-    // 7. Halo cells are children of leaves.
+    // 7. The sibling-group rows give every face neighbour the full rows give.
+    if (l >= 1) {
+      ASSERT_EQ(lv.group_face.size(), static_cast<std::size_t>(lv.n_active / kChildren<D> * kFaces<D>));
+      for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
+        const Index group = (c - lv.base) / kChildren<D>, first = lv.base + group * kChildren<D>;
+        for (int k = 0; k < kFaces<D>; ++k)
+          ASSERT_EQ(group_neighbor(first, lv.group_face_row(group), static_cast<int>(c - first), k), lv.face_row(c)[k])
+              << "level " << l << " cell " << c << " face " << k;
+      }
+    }
+    // 8. Halo cells are children of leaves.
     for (Index g = 0; g < lv.n_halo / kChildren<D>; ++g) {
       const Index p = lv.halo_parent[g];
       const Level<D>& coarse = t.level(l - 1);

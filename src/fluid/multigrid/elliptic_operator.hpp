@@ -56,19 +56,14 @@ class EllipticOperator {
   // L(a) at leaf c of level l; a must be synced (tree::Tree::sync with bc()).
   double apply(const tree::Level<D>& lv, Index c, double h, std::span<const double> a) const {
     const Index* row = lv.face_row(c);
+    if (lv.leaf[c - lv.base] != tree::Level<D>::kLeafNextToFiner)
+      return plain(c, 1.0 / (h * h), a, [row](int k) { return row[k]; });
     const double ac = a[c];
     double sum = 0.0;
-    if (lv.leaf[c - lv.base] == tree::Level<D>::kLeafNextToFiner) {
-      for (int k = 0; k < F; ++k) {
-        const Index n = row[k];
-        if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux(lv, c, k, n, h, a);
-        else sum += alpha_.at(c, k) * (a[n] - ac) / h;
-      }
-    } else if constexpr (Alpha::kConstant) {
-      for (int k = 0; k < F; ++k) sum += a[row[k]];
-      sum = alpha_.value * (sum - F * ac) / h;
-    } else {
-      for (int k = 0; k < F; ++k) sum += alpha_.at(c, k) * (a[row[k]] - ac) / h;
+    for (int k = 0; k < F; ++k) {
+      const Index n = row[k];
+      if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux(lv, c, k, n, h, a);
+      else sum += alpha_.at(c, k) * (a[n] - ac) / h;
     }
     return sum / h + lambda_.at(c) * ac;
   }
@@ -76,31 +71,22 @@ class EllipticOperator {
   // res = b - L(a) on the leaves; returns max |res| (a synced).
   double residual(std::span<const double> a, std::span<const double> b, std::span<double> res) const {
     double worst = 0.0;
-    for (int l = 0; l <= tree_.depth(); ++l) {
-      const tree::Level<D>& lv = tree_.level(l);
-      const double h = tree_.cell_size(l);
-      const Index n = lv.n_active, base = lv.base;
-#pragma omp parallel for schedule(static) reduction(max : worst) if (n > tree::kParallelMin)
-      for (Index i = 0; i < n; ++i) {
-        if (!lv.leaf[i]) continue;
-        const Index c = base + i;
-        res[c] = b[c] - apply(lv, c, h, a);
-        worst = std::max(worst, std::abs(res[c]));
-      }
-    }
+    // Spans captured by value: through references the loop reloads their data pointers
+    // after every store.
+    for_each_leaf_value(a, [res, b](Index c, double la) {
+      res[c] = b[c] - la;
+      return std::abs(res[c]);
+    }, worst);
     return worst;
   }
 
   // out = L(a) on the leaves (a synced).
   void apply_leaves(std::span<const double> a, std::span<double> out) const {
-    for (int l = 0; l <= tree_.depth(); ++l) {
-      const tree::Level<D>& lv = tree_.level(l);
-      const double h = tree_.cell_size(l);
-      const Index n = lv.n_active, base = lv.base;
-#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
-      for (Index i = 0; i < n; ++i)
-        if (lv.leaf[i]) out[base + i] = apply(lv, base + i, h, a);
-    }
+    double unused = 0.0;
+    for_each_leaf_value(a, [out](Index c, double la) {
+      out[c] = la;
+      return 0.0;
+    }, unused);
   }
 
   // `sweeps` smoothing sweeps of L(da) = res on the active cells of level l. The halo of
@@ -113,8 +99,8 @@ class EllipticOperator {
       if (opt.smoother == Smoother::red_black) {
         // No ghost refill between the colours: a face ghost's source is the cell it
         // touches, so black cells never read the ghost of a red one.
-        relax_colour(lv, 0, h2, da, res);
-        relax_colour(lv, 1, h2, da, res);
+        relax_colour<0>(lv, h2, da, res);
+        relax_colour<1>(lv, h2, da, res);
       } else {
         const Index n = lv.n_active, base = lv.base;
         const double w = opt.jacobi_weight;
@@ -128,48 +114,112 @@ class EllipticOperator {
   }
 
  private:
-  // The relaxed value of da at c from its neighbours' current values.
-  double updated(const tree::Level<D>& lv, Index c, double h2, std::span<const double> da,
-                 std::span<const double> res) const {
-    const Index* row = lv.face_row(c);
+  // L(a)_c with the same-level stencil; nb(k) is c's neighbour across face k.
+  template <class Neighbor>
+  double plain(Index c, double inv_h2, std::span<const double> a, Neighbor nb) const {
+    const double ac = a[c];
+    double sum = 0.0;
+    if constexpr (Alpha::kConstant) {
+#pragma GCC unroll 6
+      for (int k = 0; k < F; ++k) sum += a[nb(k)];
+      sum = alpha_.value * (sum - F * ac);
+    } else {
+#pragma GCC unroll 6
+      for (int k = 0; k < F; ++k) sum += alpha_.at(c, k) * (a[nb(k)] - ac);
+    }
+    return sum * inv_h2 + lambda_.at(c) * ac;
+  }
+
+  // f(c, L(a)_c) on every leaf, returning a value whose maximum lands in `worst`. Levels
+  // >= 1 are walked by sibling groups (2D neighbour indices per group, not per cell);
+  // leaves next to a finer region take the flux-matching path through their rows.
+  template <class Fn>
+  void for_each_leaf_value(std::span<const double> a, Fn f, double& worst) const {
+    double w = 0.0;
+    for (int l = 0; l <= tree_.depth(); ++l) {
+      const tree::Level<D>& lv = tree_.level(l);
+      const double h = tree_.cell_size(l);
+      const Index base = lv.base;
+      if (l == 0) {
+        for (Index c = base; c < lv.active_end(); ++c)
+          if (lv.leaf[c - base]) w = std::max(w, f(c, apply(lv, c, h, a)));
+        continue;
+      }
+      const Index groups = lv.n_active / C;
+      const double inv_h2 = 1.0 / (h * h);
+#pragma omp parallel for schedule(static) reduction(max : w) firstprivate(f) if (lv.n_active > tree::kParallelMin)
+      for (Index g = 0; g < groups; ++g) {
+        const Index first = base + g * C;
+        const Index* gf = lv.group_face_row(g);
+        const std::uint8_t* leaf = lv.leaf.data() + (first - base);
+#pragma GCC unroll 8
+        for (int b = 0; b < C; ++b) {
+          if (!leaf[b]) continue;
+          const Index c = first + b;
+          const double la = leaf[b] == tree::Level<D>::kLeafNextToFiner
+                                ? apply(lv, c, h, a)
+                                : plain(c, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+          w = std::max(w, f(c, la));
+        }
+      }
+    }
+    worst = w;
+  }
+
+  // The relaxed value of da at c from its neighbours' current values; nb(k) as in plain().
+  template <class Neighbor>
+  double updated(Index c, double h2, std::span<const double> da, std::span<const double> res, Neighbor nb) const {
     double off = 0.0, diag = 0.0;
     if constexpr (Alpha::kConstant) {
-      for (int k = 0; k < F; ++k) off += da[row[k]];
+#pragma GCC unroll 6
+      for (int k = 0; k < F; ++k) off += da[nb(k)];
       off *= alpha_.value;
       diag = F * alpha_.value;
     } else {
+#pragma GCC unroll 6
       for (int k = 0; k < F; ++k) {
         const double a = alpha_.at(c, k);
-        off += a * da[row[k]];
+        off += a * da[nb(k)];
         diag += a;
       }
     }
     return (off - h2 * res[c]) / (diag - h2 * lambda_.at(c));
   }
+  double updated(const tree::Level<D>& lv, Index c, double h2, std::span<const double> da,
+                 std::span<const double> res) const {
+    const Index* row = lv.face_row(c);
+    return updated(c, h2, da, res, [row](int k) { return row[k]; });
+  }
 
   // Gauss-Seidel on one colour. Active cells of levels >= 1 come in sibling groups of 2^D
-  // in child order, and the parity of i+j+k is the parity of the child number's bits.
-  void relax_colour(const tree::Level<D>& lv, int colour, double h2, std::span<double> da,
-                    std::span<const double> res) const {
+  // in child order, and the parity of i+j+k is the parity of the child number's bits; the
+  // neighbours come from the group's row (tree::group_neighbor), folded to constants.
+  template <int Colour>
+  void relax_colour(const tree::Level<D>& lv, double h2, std::span<double> da, std::span<const double> res) const {
     const Index base = lv.base;
     if (base == 0) {  // level 0: roots are not sibling groups
       for (Index i = 0; i < lv.n_active; ++i)
-        if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == colour) da[i] = updated(lv, i, h2, da, res);
+        if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == Colour) da[i] = updated(lv, i, h2, da, res);
       return;
     }
-    // The children of this colour, in the order of their (colour-sorted) rows.
     static constexpr auto kOfColour = [] {
-      std::array<std::array<int, C / 2>, 2> of{};
-      for (int b = 0; b < C; ++b) of[tree::kRowInGroup<D>[b] / (C / 2)][tree::kRowInGroup<D>[b] % (C / 2)] = b;
+      std::array<int, C / 2> of{};
+      int next = 0;
+      for (int b = 0; b < C; ++b)
+        if ((std::popcount(static_cast<unsigned>(b)) & 1) == Colour) of[next++] = b;
       return of;
     }();
     const Index groups = lv.n_active / C;
 #pragma omp parallel for schedule(static) if (lv.n_active > tree::kParallelMin)
-    for (Index g = 0; g < groups; ++g)
+    for (Index g = 0; g < groups; ++g) {
+      const Index first = base + g * C;
+      const Index* gf = lv.group_face_row(g);
+#pragma GCC unroll 8
       for (int j = 0; j < C / 2; ++j) {
-        const Index c = base + g * C + kOfColour[colour][j];
-        da[c] = updated(lv, c, h2, da, res);
+        const int b = kOfColour[j];
+        da[first + b] = updated(first + b, h2, da, res, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
       }
+    }
   }
 
   // Flux per unit area out of leaf c through face k into the parent n: the mean of the

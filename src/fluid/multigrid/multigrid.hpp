@@ -125,7 +125,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
 
   auto compute_residual = [&] {
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
-    t.sync(a, op.bc(), tree::Prolongation::quadratic);
+    t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
     const double worst = op.residual(a, b, res);
     if (!singular) return worst;
     detail::remove_mean<D>(t, res);
@@ -157,7 +157,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       double beta = 0.0;
       if (stats.cycles > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
       t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });
-      t.sync(p, op.correction_bc(), tree::Prolongation::quadratic);
+      t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic);
       op.apply_leaves(p, q);  // L0 p: p's ghosts hold homogeneous values
       pq_old = detail::leaf_dot<D>(t, p, q);
       const double step = detail::leaf_dot<D>(t, p, res) / pq_old;
