@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "fluid/flow_properties.hpp"
 #include "fluid/multigrid/elliptic_operator.hpp"
 
 namespace capsflow::fluid {
@@ -50,6 +51,29 @@ void NavierStokes<D>::resize_scratch() {
   for (auto& s : source_) s.assign(n, 0.0);
   div_.assign(n, 0.0);
   rhs_.assign(n, 0.0);
+  if (properties_) {
+    lambda_.assign(n, 0.0);
+    for (auto& s : transpose_) s.assign(n, 0.0);
+  }
+}
+
+// Calls body(alpha, faces) with alpha(d, lo, hi, level) the value of 1/rho on a fine face
+// and `faces` the same as the elliptic operator's coefficient type: the constant
+// (ConstantFaces) or the face array (FaceArray). Two instantiations of body, so the
+// constant path reads no array.
+template <int D>
+template <class Body>
+void NavierStokes<D>::with_inverse_density(Body&& body) const {
+  if (properties_) {
+    const std::vector<double>& a = alpha_faces_;
+    auto alpha = [&a](int d, Index lo, Index hi, const tree::Level<D>& lv) {
+      return face_coefficient<D>(lv, a, d, lo, hi);
+    };
+    body(alpha, FaceArray<D>{a.data()});
+  } else {
+    const double inv_rho = 1.0 / options_.density;
+    body([inv_rho](int, Index, Index, const tree::Level<D>&) { return inv_rho; }, ConstantFaces{inv_rho});
+  }
 }
 
 template <int D>
@@ -82,6 +106,7 @@ StepStats NavierStokes<D>::step() {
   const double dt = stable_dt();
   // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
   boundary_time_ = time_;
+  if (properties_) update_properties();
   if (!options_.stokes) prediction_and_advection(dt, stats);
   boundary_time_ = time_ + dt;
   viscosity(dt, stats);
@@ -106,6 +131,12 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
   const double lambda = -options_.density / dt;
   const double theta = options_.crank_nicolson ? 0.5 : 1.0;  // implicit share
   for (int d = 0; d < D; ++d) {
+    if (properties_) {
+      const auto s = variable_viscous_solve(d, dt, theta);
+      stats.viscous_cycles += s.cycles;
+      stats.converged = stats.converged && s.converged;
+      continue;
+    }
     std::span<double> u = tree_.values(u_[d]);
     tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * u[c]; });
     if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u*), walls at t^n
@@ -141,18 +172,19 @@ void NavierStokes<D>::acceleration(double dt) {
   for (auto& f : force_) std::fill(f.begin(), f.end(), 0.0);
   if (face_force_) face_force_(tree_, force_);
   face_average_of_velocity(uf_);
-  const double inv_rho = 1.0 / options_.density;
-  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
-    // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
-    // wall carries the normal force: no acceleration there, so the face keeps its
-    // prescribed velocity and the homogeneous Neumann pressure balances the rest exactly.
-    const Index ghost = std::max(lo, hi);
-    if (ghost >= lv.ghost_begin() &&
-        conditions_.pressure.side[lv.ghost_side[ghost - lv.ghost_begin()]].kind == tree::BcKind::neumann) {
-      force_[d][hi] = 0.0;
-      return;
-    }
-    uf_[d][hi] += dt * inv_rho * force_[d][hi];
+  with_inverse_density([&](auto alpha, auto) {
+    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
+      // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
+      // wall carries the normal force: no acceleration there, so the face keeps its
+      // prescribed velocity and the homogeneous Neumann pressure balances the rest exactly.
+      const Index ghost = std::max(lo, hi);
+      if (ghost >= lv.ghost_begin() &&
+          conditions_.pressure.side[lv.ghost_side[ghost - lv.ghost_begin()]].kind == tree::BcKind::neumann) {
+        force_[d][hi] = 0.0;
+        return;
+      }
+      uf_[d][hi] += dt * alpha(d, lo, hi, lv) * force_[d][hi];
+    });
   });
   restrict_faces<D>(tree_, uf_);
 }
@@ -162,16 +194,18 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
                              bool& converged) {
   divergence<D>(tree_, uf, div_);
   tree_.for_each_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
-  const double alpha = 1.0 / options_.density;
-  EllipticOperator<D> op(tree_, {alpha}, {}, conditions_.pressure);
   std::span<double> pv = tree_.values(p);
   MultigridOptions scaled = opt;
   scaled.tolerance /= dt * dt;  // residual of div(alpha grad p) = div(uf)/dt
-  const auto s = solve(op, pv, rhs_, mg_, scaled);  // leaves p synced (quadratic halos)
-  converged = converged && s.converged;
-  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
-    uf[d][hi] -= dt * alpha * (pv[hi] - pv[lo]) / h;
+  MultigridStats s;
+  with_inverse_density([&](auto alpha, auto faces) {
+    const EllipticOperator<D, decltype(faces)> op(tree_, faces, {}, conditions_.pressure);
+    s = solve(op, pv, rhs_, mg_, scaled);  // leaves p synced (quadratic halos)
+    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
+      uf[d][hi] -= dt * alpha(d, lo, hi, lv) * (pv[hi] - pv[lo]) / h;
+    });
   });
+  converged = converged && s.converged;
   restrict_faces<D>(tree_, uf);
   return s.cycles;
 }
@@ -187,10 +221,11 @@ void NavierStokes<D>::centred_gradient(double dt) {
   // g = cell mean of the face acceleration a - alpha grad p, so that u += dt g; a face
   // force that is a discrete gradient cancels with the pressure exactly.
   const std::span<const double> p = tree_.values(p_);
-  const double alpha = 1.0 / options_.density;
   FaceField<D>& gf = scratch_faces_;
-  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
-    gf[d][hi] = alpha * (force_[d][hi] - (p[hi] - p[lo]) / h);
+  with_inverse_density([&](auto alpha, auto) {
+    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
+      gf[d][hi] = alpha(d, lo, hi, lv) * (force_[d][hi] - (p[hi] - p[lo]) / h);
+    });
   });
   restrict_faces<D>(tree_, gf);
   for_each_leaf_level<D>(tree_, [&](Index c, int l, double) {

@@ -14,6 +14,13 @@
 //   projection  div(alpha grad p) = div(uf)/dt, alpha = 1/rho; uf -= dt alpha grad p;
 //               g = centred mean of (a - alpha grad p) on faces;  u += dt g
 // A face body force that is a discrete gradient is balanced exactly by the pressure.
+//
+// Density and viscosity are the constants of FlowOptions unless set_properties gives cell
+// fields (flow_properties.hpp: face means, the explicit transpose stress). Then mu and
+// alpha = 1/rho are face arrays in every stage, the viscous stage solves
+//   (rho/dt)(u - u*) = div(mu grad u) + T,  T = div(mu grad u^T) (explicit, from u^n),
+// and the advection source is g + (1/rho)(div(mu grad u) + T). Without it the solver reads
+// no coefficient array (the benchmarked constant path).
 #include <array>
 #include <functional>
 #include <span>
@@ -42,7 +49,7 @@ struct FlowOptions {
   // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
   // max |div uf| dt <= tolerance (the relative volume change of a cell in one step), the
   // viscous solve when its residual in velocity units is <= tolerance. Each solve scales
-  // them to the residual it sees (1/dt^2 and rho/dt).
+  // them to the residual it sees (1/dt^2 and rho/dt; with set_properties, the smallest rho).
   MultigridOptions projection{.tolerance = 1e-3};
   MultigridOptions viscous{.tolerance = 1e-3};
 };
@@ -86,6 +93,18 @@ class NavierStokes {
   using FaceForce = std::function<void(const tree::Tree<D>&, FaceField<D>& force)>;
   void set_face_force(FaceForce f) { face_force_ = std::move(f); }
 
+  // Density and viscosity as cell fields: `f` fills rho and mu (> 0) on the leaves; it is
+  // called at the start of every step, after any adapt, so the properties may follow a
+  // moving interface. They are tree fields "rho" and "mu" (registered by the first call)
+  // that adapt() only resizes: nothing is carried, since f refills them. The constants of
+  // FlowOptions are then not used.
+  using Properties = std::function<void(const tree::Tree<D>&, std::span<double> rho, std::span<double> mu)>;
+  void set_properties(Properties f);
+  bool variable_properties() const { return static_cast<bool>(properties_); }
+  // The leaves' densities of this step (for a gravity force rho_f g, with the solver's
+  // rho_f = the mean of the two cells).
+  std::span<const double> density() const { return tree_.values(rho_field_); }
+
   StepStats step();
   // Adapts the tree (velocity wavelets at `tolerance`, plus the options' forced levels),
   // carrying every field; returns the tree's counts.
@@ -93,6 +112,9 @@ class NavierStokes {
 
   // The stages, public so tests can drive them one by one.
   double stable_dt() const;
+  // With set_properties: evaluates rho and mu, their face values and the transpose stress
+  // of the current velocity (boundary values at time()). The first stage of step().
+  void update_properties();
   void prediction_and_advection(double dt, StepStats& stats);
   void viscosity(double dt, StepStats& stats);
   void acceleration(double dt);
@@ -107,6 +129,9 @@ class NavierStokes {
   int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, bool& converged);
   void face_average_of_velocity(FaceField<D>& uf);
   void centred_gradient(double dt);
+  MultigridStats variable_viscous_solve(int d, double dt, double theta);
+  template <class Body>
+  void with_inverse_density(Body&& body) const;
 
   tree::Tree<D>& tree_;
   FlowOptions<D> options_;
@@ -124,6 +149,13 @@ class NavierStokes {
   std::vector<double> div_, rhs_;
   FaceForce face_force_;
   MultigridWorkspace mg_;
+  // Variable properties (empty unless set_properties was called).
+  Properties properties_;
+  tree::FieldId rho_field_ = -1, mu_field_ = -1;
+  std::vector<double> alpha_faces_, mu_faces_;  // 1/rho and mu, 2D per cell slot
+  std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
+  std::array<std::vector<double>, D> transpose_;  // T per component
+  double rho_min_ = 1.0;                        // scales the viscous tolerance
 };
 
 extern template class NavierStokes<2>;

@@ -93,6 +93,14 @@ void check_fluid(const CaseConfig& c, const Checker& ck) {
   ck.positive("fluid.Re", c.fluid.Re);
   ck.positive("fluid.density_ratio", c.fluid.density_ratio);
   ck.positive("fluid.viscosity_ratio", c.fluid.viscosity_ratio);
+  // The flow solver takes density and viscosity fields, but nothing yet tells it which
+  // cells are inside a capsule: refuse rather than run a case with the ratio ignored.
+  if (c.fluid.density_ratio != 1.0)
+    ck.fail("fluid.density_ratio", toml_number(c.fluid.density_ratio),
+            "must be 1: inner fluids of another density are not implemented yet");
+  if (c.fluid.viscosity_ratio != 1.0)
+    ck.fail("fluid.viscosity_ratio", toml_number(c.fluid.viscosity_ratio),
+            "must be 1: inner fluids of another viscosity are not implemented yet");
   ck.positive("fluid.multigrid.tolerance", c.fluid.multigrid.tolerance);
   ck.at_least("fluid.multigrid.max_cycles", c.fluid.multigrid.max_cycles, 1);
   check_boundary(c, ck);

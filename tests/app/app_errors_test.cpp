@@ -68,6 +68,15 @@ TEST(AppErrors, SyntaxUnknownKeyWrongTypeAndRanges) {
   expect_refused(kCavity, "--set fluid.nonsense=1", "fluid.nonsense");
 }
 
+// The inner-fluid ratios are refused until the inner fluid is marked (they used to be
+// ignored silently).
+TEST(AppErrors, InnerFluidRatiosRefused) {
+  expect_refused(kCavity, "--set fluid.viscosity_ratio=4",
+                 "fluid.viscosity_ratio = 4.0 (from --set): must be 1: inner fluids of another viscosity");
+  expect_refused(std::string(kCavity) + "[fluid]\ndensity_ratio = 0.5\n", "",
+                 "fluid.density_ratio = 0.5: must be 1: inner fluids of another density");
+}
+
 TEST(AppErrors, CapsuleThatDoesNotFit) {
   const std::string capsule = R"(name = "c"
 [domain]

@@ -2,21 +2,15 @@
 
 namespace capsflow::fluid {
 
+namespace {
+
+// Parents get the mean of their children's values on the same side, bottom-up; then a leaf
+// facing a parent takes the parent's (fine-averaged) value on their common face, so both
+// sides of every face of a level see the same coefficient (a symmetric level operator).
+// `out` holds the leaves' values on entry.
 template <int D>
-void face_coefficients(const tree::Tree<D>& t,
-                       const std::function<double(const tree::Point<D>&, int)>& alpha,
-                       std::vector<double>& out) {
+void average_onto_parents(const tree::Tree<D>& t, std::vector<double>& out) {
   constexpr int F = 2 * D;
-  out.assign(static_cast<std::size_t>(t.num_cells()) * F, 0.0);
-  for (const Index c : t.leaves()) {
-    const tree::Point<D> x = t.center(c);
-    const double h = t.cell_size(t.level_of(c));
-    for (int k = 0; k < F; ++k) {
-      tree::Point<D> xf = x;
-      xf[k / 2] += (k & 1) ? 0.5 * h : -0.5 * h;
-      out[static_cast<std::size_t>(c) * F + k] = alpha(xf, k / 2);
-    }
-  }
   for (int l = t.depth() - 1; l >= 0; --l) {
     const tree::Level<D>& lv = t.level(l);
     for (Index i = 0; i < lv.n_active; ++i) {
@@ -30,9 +24,6 @@ void face_coefficients(const tree::Tree<D>& t,
       }
     }
   }
-  // A leaf facing a parent takes the parent's (fine-averaged) value on their common face,
-  // so both sides of every face of a level see the same coefficient (a symmetric level
-  // operator).
   for (int l = 0; l < t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     for (Index i = 0; i < lv.n_active; ++i) {
@@ -47,11 +38,74 @@ void face_coefficients(const tree::Tree<D>& t,
   }
 }
 
+}  // namespace
+
+double face_mean(FaceMean mean, double a, double b) {
+  // Equal values give that value exactly, so constant fields give constant coefficients.
+  if (a == b) return mean == FaceMean::inverse_arithmetic ? 1.0 / a : a;
+  switch (mean) {
+    case FaceMean::harmonic:
+      return 2.0 * a * b / (a + b);
+    case FaceMean::inverse_arithmetic:
+      break;
+  }
+  return 2.0 / (a + b);
+}
+
+template <int D>
+void face_coefficients(const tree::Tree<D>& t, const std::function<double(const tree::Point<D>&, int)>& alpha,
+                       std::vector<double>& out) {
+  constexpr int F = 2 * D;
+  out.assign(static_cast<std::size_t>(t.num_cells()) * F, 0.0);
+  for (const Index c : t.leaves()) {
+    const tree::Point<D> x = t.center(c);
+    const double h = t.cell_size(t.level_of(c));
+    for (int k = 0; k < F; ++k) {
+      tree::Point<D> xf = x;
+      xf[k / 2] += (k & 1) ? 0.5 * h : -0.5 * h;
+      out[static_cast<std::size_t>(c) * F + k] = alpha(xf, k / 2);
+    }
+  }
+  average_onto_parents<D>(t, out);
+}
+
+template <int D>
+void face_coefficients(const tree::Tree<D>& t, std::span<const double> cells, FaceMean mean,
+                       std::vector<double>& out) {
+  constexpr int F = 2 * D;
+  constexpr int C = tree::kChildren<D>;
+  out.assign(static_cast<std::size_t>(t.num_cells()) * F, 0.0);
+  for (int l = 0; l <= t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    const Index n_active = lv.n_active, base = lv.base;
+#pragma omp parallel for schedule(static) if (n_active > tree::kParallelMin)
+    for (Index i = 0; i < n_active; ++i) {
+      if (!lv.leaf[i]) continue;
+      const Index c = base + i;
+      const Index* row = lv.face_row(c);
+      for (int k = 0; k < F; ++k) {
+        Index n = row[k];
+        // A parent neighbour's face is set by the fix-up below: its own value is not read.
+        if (n >= lv.ghost_begin() || (n < lv.active_end() && !lv.is_leaf(n)))
+          n = c;
+        else if (n >= lv.halo_begin())
+          n = lv.halo_parent[(n - lv.halo_begin()) / C];
+        out[static_cast<std::size_t>(c) * F + k] = face_mean(mean, cells[c], cells[n]);
+      }
+    }
+  }
+  average_onto_parents<D>(t, out);
+}
+
 template void face_coefficients<2>(const tree::Tree<2>&,
                                    const std::function<double(const tree::Point<2>&, int)>&,
                                    std::vector<double>&);
 template void face_coefficients<3>(const tree::Tree<3>&,
                                    const std::function<double(const tree::Point<3>&, int)>&,
+                                   std::vector<double>&);
+template void face_coefficients<2>(const tree::Tree<2>&, std::span<const double>, FaceMean,
+                                   std::vector<double>&);
+template void face_coefficients<3>(const tree::Tree<3>&, std::span<const double>, FaceMean,
                                    std::vector<double>&);
 
 }  // namespace capsflow::fluid

@@ -53,4 +53,21 @@ void face_coefficients(const tree::Tree<D>& t,
                        const std::function<double(const tree::Point<D>&, int)>& alpha,
                        std::vector<double>& out);
 
+// How a face coefficient comes from the values of the two cells it separates.
+enum class FaceMean {
+  harmonic,            // 2ab / (a + b): a conductance in series (viscosity across a jump)
+  inverse_arithmetic,  // 2 / (a + b): 1/rho on a face from cell densities
+};
+
+double face_mean(FaceMean mean, double a, double b);
+
+// The same from cell values (read on the leaves only): a leaf's face takes the mean of the
+// leaf and its same-level neighbour, where a halo neighbour (the coarse side of a jump)
+// stands for its coarse leaf and a ghost (the domain boundary) for the leaf itself (zero
+// normal gradient of the property); then parents and the leaf-facing-parent fix-up as
+// above.
+template <int D>
+void face_coefficients(const tree::Tree<D>& t, std::span<const double> cells, FaceMean mean,
+                       std::vector<double>& out);
+
 }  // namespace capsflow::fluid

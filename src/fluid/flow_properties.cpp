@@ -1,0 +1,148 @@
+// Variable density and viscosity: the transpose stress, and the NavierStokes stages that
+// evaluate the properties and solve the viscous step with them. See flow_properties.hpp.
+#include "fluid/flow_properties.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "fluid/multigrid/elliptic_operator.hpp"
+#include "fluid/navier_stokes.hpp"
+
+namespace capsflow::fluid {
+
+namespace {
+
+// kCorner<D>[i][j][si][sj]: the neighbour slot of offset (si ? +1 : -1) e_i + (sj ? +1 : -1) e_j.
+template <int D>
+constexpr auto kCorner = [] {
+  std::array<std::array<std::array<std::array<int, 2>, 2>, D>, D> slot{};
+  for (int i = 0; i < D; ++i)
+    for (int j = 0; j < D; ++j)
+      for (int si = 0; si < 2; ++si)
+        for (int sj = 0; sj < 2; ++sj) {
+          if (i == j) continue;
+          tree::Offset<D> o{};
+          o[i] = si ? 1 : -1;
+          o[j] = sj ? 1 : -1;
+          slot[i][j][si][sj] = tree::slot_of<D>(o);
+        }
+  return slot;
+}();
+
+}  // namespace
+
+template <int D>
+void transpose_stress(const tree::Tree<D>& t, const std::array<std::span<const double>, D>& u,
+                      std::span<const double> mu_cells, const std::vector<double>& mu_faces, int i,
+                      std::span<double> out) {
+  constexpr int F = 2 * D;
+  for_each_leaf_level<D>(t, [&](Index c, int l, double h) {
+    const tree::Level<D>& lv = t.level(l);
+    const Index* row = lv.face_row(c);
+    const double mu_c = mu_cells[c];
+    double sum = 0.0;
+    for (int j = 0; j < D; ++j)
+      for (int s = 0; s < 2; ++s) {
+        const double dmu = mu_faces[static_cast<std::size_t>(c) * F + 2 * j + s] - mu_c;
+        if (dmu == 0.0) continue;  // constant mu: no term at all
+        double g = 0.0;            // d_i u_j on the face
+        if (j == i) {
+          g = s ? (u[i][row[2 * i + 1]] - u[i][c]) / h : (u[i][c] - u[i][row[2 * i]]) / h;
+        } else {
+          const std::span<const double> uj = u[j];
+          const auto& k = kCorner<D>[i][j];
+          g = (uj[row[2 * i + 1]] + uj[lv.neighbor(c, k[1][s])] - uj[row[2 * i]] -
+               uj[lv.neighbor(c, k[0][s])]) /
+              (4.0 * h);
+        }
+        sum += s ? dmu * g : -dmu * g;
+      }
+    out[c] = sum / h;
+  });
+}
+
+template <int D>
+void NavierStokes<D>::set_properties(Properties f) {
+  if (!properties_) {  // scratch fields: refilled every step, so adapt only resizes them
+    rho_field_ = tree_.add_field({.name = "rho", .prolongation = tree::Prolongation::none});
+    mu_field_ = tree_.add_field({.name = "mu", .prolongation = tree::Prolongation::none});
+  }
+  properties_ = std::move(f);
+  resize_scratch();
+}
+
+template <int D>
+void NavierStokes<D>::update_properties() {
+  const std::span<double> rho = tree_.values(rho_field_), mu = tree_.values(mu_field_);
+  properties_(tree_, rho, mu);
+  double rho_min = 1e300, mu_min = 1e300;
+  for (const Index c : tree_.leaves()) {
+    rho_min = std::min(rho_min, rho[c]);
+    mu_min = std::min(mu_min, mu[c]);
+  }
+  if (!(rho_min > 0.0) || !(mu_min > 0.0) || rho_min == 1e300 || mu_min == 1e300)
+    throw std::invalid_argument(
+        fmt::format("flow properties: min density {}, min viscosity {}: both must be > 0", rho_min, mu_min));
+  rho_min_ = rho_min;
+  face_coefficients<D>(tree_, rho, FaceMean::inverse_arithmetic, alpha_faces_);
+  face_coefficients<D>(tree_, mu, FaceMean::harmonic, mu_faces_);
+  // The explicit transpose stress, from the velocity at the start of the step (walls at
+  // t^n): a steady state then satisfies the full discrete stress balance exactly.
+  std::array<std::span<const double>, D> u;
+  for (int d = 0; d < D; ++d) {
+    tree_.sync(tree_.values(u_[d]), conditions_.velocity[d], tree::Prolongation::quadratic);
+    u[d] = tree_.values(u_[d]);
+  }
+  for (int d = 0; d < D; ++d) transpose_stress<D>(tree_, u, mu, mu_faces_, d, transpose_[d]);
+}
+
+template <int D>
+MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double theta) {
+  // rho (u - u*)/dt = theta div(mu grad u) + (1 - theta) div(mu grad u*) + T, divided by
+  // theta so that the operator's face coefficients are mu_f itself:
+  //   div(mu grad u) - rho/(theta dt) u = -rho/(theta dt) u* - (1-theta)/theta div(mu grad u*) - T/theta.
+  std::span<double> u = tree_.values(u_[d]);
+  const std::span<const double> rho = tree_.values(rho_field_);
+  const std::vector<double>& transpose = transpose_[d];
+  tree_.for_each_leaf([&](Index c) {
+    lambda_[c] = -rho[c] / (theta * dt);
+    rhs_[c] = lambda_[c] * u[c] - transpose[c] / theta;
+  });
+  // The multigrid relaxes parents too: they take the volume mean of their children's.
+  for (int l = tree_.depth() - 1; l >= 0; --l) tree_.restrict_level(l, lambda_);
+  if (theta < 1.0) {  // explicit part at u*, walls at t^n
+    const double t_new = boundary_time_;
+    boundary_time_ = time_;
+    EllipticOperator<D, FaceArray<D>> explicit_part(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]);
+    tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
+    explicit_part.apply_leaves(u, div_);
+    const double w = (1.0 - theta) / theta;
+    tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
+    boundary_time_ = t_new;
+  }
+  EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {mu_faces_.data()}, {lambda_.data()},
+                                                  conditions_.velocity[d]);
+  // The velocity tolerance in the residual's units, rho/(theta dt), with the smallest
+  // density: a residual r moves a cell's velocity by about r theta dt / rho_c, so every cell
+  // is then within the velocity tolerance (as the constant path, for constant rho).
+  MultigridOptions opt = options_.viscous;
+  opt.tolerance *= rho_min_ / (theta * dt);
+  return solve(op, u, rhs_, mg_, opt);
+}
+
+template void transpose_stress<2>(const tree::Tree<2>&, const std::array<std::span<const double>, 2>&,
+                                  std::span<const double>, const std::vector<double>&, int,
+                                  std::span<double>);
+template void transpose_stress<3>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
+                                  std::span<const double>, const std::vector<double>&, int,
+                                  std::span<double>);
+template void NavierStokes<2>::set_properties(Properties);
+template void NavierStokes<3>::set_properties(Properties);
+template void NavierStokes<2>::update_properties();
+template void NavierStokes<3>::update_properties();
+template MultigridStats NavierStokes<2>::variable_viscous_solve(int, double, double);
+template MultigridStats NavierStokes<3>::variable_viscous_solve(int, double, double);
+
+}  // namespace capsflow::fluid
