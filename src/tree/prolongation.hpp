@@ -84,4 +84,47 @@ double quadratic_child(const double* block, int child) {
   return v;
 }
 
+namespace detail {
+
+// One direction of quadratic_children: in has directions < Dir reduced to the 2 child
+// sides (index lo + n_lo (o + 3 hi)); res has Dir reduced too (lo + n_lo (side + 2 hi)).
+// Constant bounds, so the loops unroll.
+template <int D, int Dir>
+void quadratic_pass(const double* in, double* res) {
+  constexpr auto kWeight = [] {  // kWeight[side][o + 1], xi = -1/4 (side 0) or +1/4
+    std::array<std::array<double, 3>, 2> w{};
+    for (int side = 0; side < 2; ++side) {
+      const double xi = side ? 0.25 : -0.25;
+      w[side] = {0.5 * xi * (xi - 1.0), 1.0 - xi * xi, 0.5 * xi * (xi + 1.0)};
+    }
+    return w;
+  }();
+  constexpr int n_lo = 1 << Dir, n_hi = ipow(3, D - 1 - Dir);
+  for (int hi = 0; hi < n_hi; ++hi)
+    for (int side = 0; side < 2; ++side)
+      for (int lo = 0; lo < n_lo; ++lo) {
+        const double* v = in + lo + n_lo * 3 * hi;
+        res[lo + n_lo * (side + 2 * hi)] =
+            kWeight[side][0] * v[0] + kWeight[side][1] * v[n_lo] + kWeight[side][2] * v[2 * n_lo];
+      }
+}
+
+}  // namespace detail
+
+// All 2^D children at once (child b at out[b]), as quadratic_child gives them, by one 1D
+// interpolation per direction (3^D -> 2 x 3^(D-1) -> ... -> 2^D values): 3 (3^D + ...
+// + 2^D) multiplications instead of 2^D 3^D, which matters for a 3D halo group (114 vs 216).
+template <int D>
+void quadratic_children(const double* block, double* out) {
+  static_assert(D == 2 || D == 3);
+  double a[ipow(3, D)], b[ipow(3, D)];
+  detail::quadratic_pass<D, 0>(block, a);
+  if constexpr (D == 2) {
+    detail::quadratic_pass<D, 1>(a, out);
+  } else {
+    detail::quadratic_pass<D, 1>(a, b);
+    detail::quadratic_pass<D, 2>(b, out);
+  }
+}
+
 }  // namespace capsflow::tree

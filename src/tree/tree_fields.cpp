@@ -29,11 +29,17 @@ ParentSlopes<D> slopes_of(const Level<D>& lv, Index parent, std::span<const doub
 // The parent's 3^D neighbourhood, indexed as quadratic_child expects.
 template <int D>
 void block_of(const Level<D>& lv, Index parent, std::span<const double> v, double* block) {
-  for (int s = 0; s < kStencil<D>; ++s) {
-    int code = 0;
-    for (int d = D - 1; d >= 0; --d) code = code * 3 + kOffsets<D>[s][d] + 1;
-    block[code] = v[lv.neighbor(parent, s)];
-  }
+  static constexpr auto kCode = [] {  // block code of each stencil slot
+    std::array<int, kStencil<D>> code{};
+    for (int s = 0; s < kStencil<D>; ++s)
+      for (int d = D - 1; d >= 0; --d) code[s] = code[s] * 3 + kOffsets<D>[s][d] + 1;
+    return code;
+  }();
+  const std::size_t row = Level<D>::row_of(parent - lv.base);
+  const Index* face = lv.face.data() + row * kFaces<D>;
+  const Index* diag = lv.diag.data() + row * kDiagonals<D>;
+  for (int s = 0; s < kFaces<D>; ++s) block[kCode[s]] = v[face[s]];
+  for (int s = kFaces<D>; s < kStencil<D>; ++s) block[kCode[s]] = v[diag[s - kFaces<D>]];
   block[(ipow(3, D) - 1) / 2] = v[parent];
 }
 
@@ -78,7 +84,7 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p) const {
     for (Index g = 0; g < groups; ++g) {
       double block[ipow(3, D)];
       block_of<D>(coarse, lv.halo_parent[g], v, block);
-      for (int k = 0; k < C; ++k) v[first + g * C + k] = quadratic_child<D>(block, k);
+      quadratic_children<D>(block, v.data() + first + g * C);
     }
     return;
   }

@@ -58,6 +58,25 @@ TEST(ProlongationKernel, ExactForLinearAndConservative) {
   EXPECT_EQ(minmod(-1.0, 2.0), 0.0);
 }
 
+// The direction-by-direction evaluation of the quadratic prolongation gives every child
+// the tensor-product value, for any block (random values) in 2D and 3D.
+template <int D>
+void check_quadratic_children() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double block[ipow(3, D)], all[kChildren<D>];
+  for (int trial = 0; trial < 20; ++trial) {
+    for (double& v : block) v = u(rng);
+    quadratic_children<D>(block, all);
+    for (int b = 0; b < kChildren<D>; ++b) EXPECT_NEAR(all[b], quadratic_child<D>(block, b), 1e-15);
+  }
+}
+
+TEST(ProlongationKernel, QuadraticChildrenDirectionByDirection) {
+  check_quadratic_children<2>();
+  check_quadratic_children<3>();
+}
+
 template <int D>
 void check_linear_sync(TreeOptions<D> opt, unsigned seed, BcKind kind) {
   Tree<D> t = random_tree<D>(opt, seed, 6);
