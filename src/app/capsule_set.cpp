@@ -39,6 +39,7 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
   const io::AdaptConfig& a = c.adapt;
   coupling_ = std::make_unique<ibm::CapsuleCoupling>(
       ns, ibm::CouplingAdapt{.enabled = a.enabled, .interval = a.interval, .velocity_tolerance = a.velocity_tolerance,
+                             .velocity_tolerance_relative = a.velocity_tolerance_relative,
                              .min_level = a.min_level, .wall_level = a.wall_level,
                              .margin = std::max(0, a.membrane_band - 2)});
   for (std::size_t i = 0; i < c.capsules.size(); ++i) {

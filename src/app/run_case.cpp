@@ -140,7 +140,8 @@ class FlowRun {
       const bool last = ns_.time() >= t_end * (1 - 1e-12);
       if (!capsules_ && c.adapt.enabled && step % c.adapt.interval == 0 && !last)  // (capsules: the coupling adapts)
         (void)ns_.adapt(c.adapt.velocity_tolerance,
-                        {.min_level = c.adapt.min_level, .max_level = top, .required_level = walls});
+                        {.min_level = c.adapt.min_level, .max_level = top, .required_level = walls},
+                        c.adapt.velocity_tolerance_relative);
       if (step % c.output.diagnostics_interval == 0 || last) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

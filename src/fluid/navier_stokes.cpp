@@ -247,7 +247,22 @@ double NavierStokes<D>::max_divergence() {
 }
 
 template <int D>
-tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D> opt) {
+double NavierStokes<D>::max_velocity_component() const {
+  double fastest = 0.0;
+  for (const Index c : tree_.leaves())
+    for (int d = 0; d < D; ++d) fastest = std::max(fastest, std::abs(tree_.values(u_[d])[c]));
+  return fastest;
+}
+
+template <int D>
+double NavierStokes<D>::velocity_tolerance(double tolerance, double relative) const {
+  if (relative <= 0.0) return tolerance;
+  return std::max(std::min(tolerance, relative * max_velocity_component()), 1e-3 * tolerance);
+}
+
+template <int D>
+tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D> opt, double relative) {
+  tolerance = velocity_tolerance(tolerance, relative);
   for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
   const auto counts = tree_.adapt(opt);
   resize_scratch();

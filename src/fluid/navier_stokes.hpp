@@ -107,8 +107,16 @@ class NavierStokes {
 
   StepStats step();
   // Adapts the tree (velocity wavelets at `tolerance`, plus the options' forced levels),
-  // carrying every field; returns the tree's counts.
-  tree::AdaptCounts adapt(double tolerance, tree::AdaptOptions<D> options);
+  // carrying every field; returns the tree's counts. With relative > 0 the tolerance is
+  // velocity_tolerance(tolerance, relative).
+  tree::AdaptCounts adapt(double tolerance, tree::AdaptOptions<D> options, double relative = 0.0);
+  // The wavelet tolerance of an adapt: min(tolerance, relative max|u|) for relative > 0, but
+  // at least 1e-3 tolerance, so that round-off in a fluid at rest refines nothing. A fixed
+  // tolerance lets the grid coarsen as a flow decays (a relaxing capsule: max|u| falls
+  // 100x), until the coarse cells' errors are a large part of what is left of the flow.
+  double velocity_tolerance(double tolerance, double relative) const;
+  // max |u_d| over the leaves and components.
+  double max_velocity_component() const;
 
   // The stages, public so tests can drive them one by one.
   double stable_dt() const;

@@ -152,7 +152,7 @@ tree::AdaptCounts CapsuleCoupling::adapt() {
   build_tags();
   tree::AdaptOptions<3> opt{.min_level = adapt_.min_level,
                             .required_level = [this](const tree::Box<3>& b) { return required_level(b); }};
-  tree::AdaptCounts counts = ns_.adapt(adapt_.velocity_tolerance, opt);
+  tree::AdaptCounts counts = ns_.adapt(adapt_.velocity_tolerance, opt, adapt_.velocity_tolerance_relative);
   // One adapt refines a leaf by one level; the band moves less than its margin per step,
   // so this rarely does anything, but a stencil must never miss a cell.
   if (!stencils_ready()) {

@@ -45,6 +45,7 @@ struct CouplingAdapt {
   bool enabled = false;              // adapt after every `interval`-th step
   int interval = 1;
   double velocity_tolerance = 1e-2;  // wavelet tolerance on each velocity component
+  double velocity_tolerance_relative = 0.0;  // NavierStokes::velocity_tolerance
   int min_level = 0;
   int wall_level = 0;                // level forced on leaves touching a wall (0: none)
   int margin = 2;                    // max-level cells tagged beyond the kernels' half support

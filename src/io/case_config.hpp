@@ -69,6 +69,9 @@ struct AdaptConfig {
   int min_level = 2;
   int max_level = 6;                 // also the tree's deepest level
   double velocity_tolerance = 1e-2;  // wavelet tolerance on each velocity component
+  // > 0: the tolerance tightens to this fraction of max |u| when that is smaller (flows
+  // that decay, like a relaxing capsule); 0: velocity_tolerance alone.
+  double velocity_tolerance_relative = 0.0;
   int wall_level = 0;                // level forced along non-periodic walls (0: off)
   int membrane_band = 4;             // cells of max_level forced around membrane nodes
   int interval = 1;                  // steps between adaptations

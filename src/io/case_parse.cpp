@@ -92,6 +92,7 @@ void parse_adapt(TableReader r, AdaptConfig& a) {
   r.read("min_level", a.min_level);
   r.read("max_level", a.max_level);
   r.read("velocity_tolerance", a.velocity_tolerance);
+  r.read("velocity_tolerance_relative", a.velocity_tolerance_relative);
   r.read("wall_level", a.wall_level);
   r.read("membrane_band", a.membrane_band);
   r.read("interval", a.interval);

@@ -118,6 +118,7 @@ void check_adapt(const CaseConfig& c, const Checker& ck) {
             fmt::format("above {}, the deepest level the tree allows on these roots (Morton key limit)",
                         limit));
   ck.positive("adapt.velocity_tolerance", a.velocity_tolerance);
+  ck.non_negative("adapt.velocity_tolerance_relative", a.velocity_tolerance_relative);
   ck.at_least("adapt.wall_level", a.wall_level, 0);
   if (a.wall_level > a.max_level)
     ck.fail("adapt.wall_level", fmt::format("{}", a.wall_level),

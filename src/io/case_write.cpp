@@ -73,6 +73,7 @@ std::string to_toml(const CaseConfig& c) {
   line("min_level", fmt::format("{}", c.adapt.min_level));
   line("max_level", fmt::format("{}", c.adapt.max_level));
   line("velocity_tolerance", toml_number(c.adapt.velocity_tolerance));
+  line("velocity_tolerance_relative", toml_number(c.adapt.velocity_tolerance_relative));
   line("wall_level", fmt::format("{}", c.adapt.wall_level));
   line("membrane_band", fmt::format("{}", c.adapt.membrane_band));
   line("interval", fmt::format("{}", c.adapt.interval));

@@ -41,6 +41,44 @@ TEST(Cavity, Re100UniformAndAdaptiveAgree) {
   EXPECT_LT(ra.leaves, ru.leaves / 2);
 }
 
+// A relative wavelet tolerance follows a decaying flow: the same velocity field scaled
+// down 100x keeps its grid with the relative tolerance, and loses most of its refinement
+// with the absolute one (the adaptive seed relaxation drifted from the uniform one by more
+// than 1 % in D12 once max|u| fell to a few times the absolute tolerance).
+TEST(Adaptation, RelativeToleranceFollowsADecayingFlow) {
+  auto leaves_after_adapt = [](double scale, double relative) {
+    tree::Tree<2> t({.roots = {1, 1}, .max_level = 7});
+    t.refine_to([](const tree::Box<2>&) { return 7; });
+    std::array<SideFlow<2>, 4> sides{};
+    NavierStokes<2> ns(t, {.Re = 1.0, .stokes = true, .boundaries = sides});
+    for (const auto c : t.leaves()) {  // a vortex, zero on the walls
+      const auto x = t.center(c);
+      ns.u(0)[c] = scale * std::sin(M_PI * x[0]) * std::sin(M_PI * x[0]) * std::sin(2 * M_PI * x[1]);
+      ns.u(1)[c] = -scale * std::sin(2 * M_PI * x[0]) * std::sin(M_PI * x[1]) * std::sin(M_PI * x[1]);
+    }
+    const double tolerance = ns.velocity_tolerance(1e-3, relative);
+    (void)ns.adapt(1e-3, {.min_level = 3}, relative);
+    return std::make_pair(t.num_leaves(), tolerance);
+  };
+  // The rule: min(absolute, relative max|u|), floored at 1e-3 absolute.
+  const auto [fast_rel, tol_fast] = leaves_after_adapt(1.0, 1e-4);
+  const auto [slow_rel, tol_slow] = leaves_after_adapt(0.01, 1e-4);
+  const auto [slow_abs, tol_abs] = leaves_after_adapt(0.01, 0.0);
+  const auto [rest, tol_rest] = leaves_after_adapt(0.0, 1e-4);
+  std::printf("leaves: fast %d (tolerance %.1e), slow relative %d (%.1e), slow absolute %d (%.1e), rest %d (%.1e)\n",
+              fast_rel, tol_fast, slow_rel, tol_slow, slow_abs, tol_abs, rest, tol_rest);
+  EXPECT_NEAR(tol_fast, 1e-4, 1e-7);  // 1e-4 x max|u| (0.9995 at the cell centres) < 1e-3
+  EXPECT_DOUBLE_EQ(tol_slow, 1e-6);   // 1e-4 x 0.01 < 1e-6, the floor
+  EXPECT_DOUBLE_EQ(tol_abs, 1e-3);
+  EXPECT_DOUBLE_EQ(tol_rest, 1e-6);   // at rest: the floor, not zero
+  EXPECT_EQ(slow_rel, fast_rel);      // the same field, scaled: the same grid
+  EXPECT_LT(slow_abs, slow_rel / 2);
+  // Round-off refines nothing: at rest every cell coarsens (one level per adapt: 128^2 ->
+  // 64^2), as the decayed flow does with the absolute tolerance.
+  EXPECT_EQ(rest, 64 * 64);
+  EXPECT_EQ(slow_abs, 64 * 64);
+}
+
 // Developed flow in a square duct (periodic along x, walls around, driven by a uniform
 // force G = -dp/dx): the centreline and the flow rate match the exact series.
 TEST(SquareDuct, DevelopedFlowMatchesExactSeries) {

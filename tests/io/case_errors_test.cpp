@@ -100,6 +100,8 @@ TEST(io_case_errors, NegativeReViscosityOrCfl) {
   EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nviscosity_ratio = -2.5\n"),
               HasSubstr("fluid.viscosity_ratio = -2.5: must be > 0"));
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncfl = -0.5\n"), HasSubstr("time.cfl = -0.5: must be >= 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nvelocity_tolerance_relative = -0.01\n"),
+              HasSubstr("adapt.velocity_tolerance_relative = -0.01: must be >= 0"));
 }
 
 // The ratios are read (the message quotes the value) but refused: nothing marks the inner
