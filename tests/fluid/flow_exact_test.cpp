@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "fluid/navier_stokes.hpp"
+#include "flow_sides.hpp"
 
 namespace capsflow::fluid {
 namespace {
@@ -13,14 +14,8 @@ namespace {
 using tree::Point;
 using tree::Tree;
 
-const double kPi = std::acos(-1.0);
-
-template <int D>
-std::array<SideFlow<D>, 2 * D> all(SideKind k) {
-  std::array<SideFlow<D>, 2 * D> s{};
-  for (auto& x : s) x.kind = k;
-  return s;
-}
+using testing::all;
+using testing::kPi;
 
 Tree<2> unit_square(int level, bool periodic_x, bool periodic_y) {
   Tree<2> t({.roots = {1, 1}, .periodic = {periodic_x, periodic_y}, .max_level = level});

@@ -9,6 +9,7 @@
 
 #include "fluid/flow_properties.hpp"
 #include "fluid/navier_stokes.hpp"
+#include "flow_sides.hpp"
 #include "nested_trees.hpp"
 
 namespace capsflow::fluid {
@@ -17,14 +18,8 @@ namespace {
 using tree::Point;
 using tree::Tree;
 
-const double kPi = std::acos(-1.0);
-
-template <int D>
-std::array<SideFlow<D>, 2 * D> all(SideKind k) {
-  std::array<SideFlow<D>, 2 * D> s{};
-  for (auto& x : s) x.kind = k;
-  return s;
-}
+using testing::all;
+using testing::kPi;
 
 // rho and mu as functions of the cell centre.
 template <int D, class Rho, class Mu>
