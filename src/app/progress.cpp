@@ -15,14 +15,19 @@ ProgressLine::ProgressLine(bool quiet)
 void ProgressLine::update(const ProgressState& s, bool force) {
   if (quiet_) return;
   const auto now = std::chrono::steady_clock::now();
-  if (first_step_ < 0) first_step_ = s.step;
+  if (first_step_ < 0) {
+    first_step_ = s.step - 1;  // the step before the first one of this run
+    first_t_ = s.t - s.dt;  // the time this run started from (a restart starts late)
+  }
   const double since = std::chrono::duration<double>(now - last_print_).count();
   if (!force && since < (terminal_ ? 0.2 : 5.0)) return;
   last_print_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double rate = elapsed > 0 ? double(s.step - first_step_) / elapsed : 0.0;
   const double fraction = s.t_end > 0 ? s.t / s.t_end : 1.0;
-  const double eta = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+  // The remaining time at the rate of this run (not of the run a restart resumed).
+  const double done = s.t - first_t_;
+  const double eta = done > 0 ? elapsed * (s.t_end - s.t) / done : 0.0;
   const auto seconds = static_cast<long>(eta);
   std::string line = fmt::format("step {}  t {:.4g}/{:.4g} ({:.0f}%)  dt {:.2e}  cells {}  level {}  mg {}  "
                                  "{:.1f} steps/s  ETA {}:{:02d}:{:02d}",

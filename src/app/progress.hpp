@@ -25,6 +25,7 @@ class ProgressLine {
   bool terminal_;
   std::chrono::steady_clock::time_point start_, last_print_;
   long first_step_ = -1;
+  double first_t_ = 0.0;
   std::size_t last_width_ = 0;
 };
 
