@@ -22,6 +22,19 @@ def read(run):
     return np.genfromtxt(path, delimiter=",", names=True)
 
 
+def print_turning_points(label, d):
+    """The local extremes of D12_bbox (signed: negative when the capsule is longer across the
+    channel than along it): a damped oscillation shows as extremes of alternating sign and
+    falling size, a monotonic relaxation as none."""
+    y = d["D12_bbox"]
+    turning = [i for i in range(1, len(y) - 1) if (y[i] - y[i - 1]) * (y[i + 1] - y[i]) < 0 and abs(y[i]) > 1e-4]
+    if not turning:
+        print(f"{label}: D12_bbox has no turning point (monotonic relaxation)")
+        return
+    points = "  ".join(f"t = {d['t'][i]:.2f}: {y[i]:+.4f}" for i in turning[:8])
+    print(f"{label}: D12_bbox turning points: {points}")
+
+
 def main():
     runs = sys.argv[1:]
     if not runs:
@@ -39,6 +52,7 @@ def main():
                 i = int(np.argmin(np.abs(d["t"] - t)))
                 print(f"{label}: t = {d['t'][i]:.3f}  D12 = {d['D12'][i]:.5f}  D12_bbox = {d['D12_bbox'][i]:.5f}  "
                       f"area_rel = {d['area_rel'][i]:+.2e}  volume_rel = {d['volume_rel'][i]:+.2e}  vmax = {d['vmax'][i]:.3e}")
+        print_turning_points(label, d)
     ax[0].set(xlabel="t", ylabel="Taylor parameter", title="capsule relaxation")
     ax[1].set(xlabel="t", ylabel="change from the reference sphere (%)", title="area and volume")
     for a in ax:
