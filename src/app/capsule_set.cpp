@@ -38,7 +38,8 @@ std::string numbered(const char* stem, long step, int capsule) {
 CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
   const io::AdaptConfig& a = c.adapt;
   coupling_ = std::make_unique<ibm::CapsuleCoupling>(
-      ns, ibm::CouplingAdapt{.enabled = a.enabled, .interval = a.interval, .velocity_tolerance = a.velocity_tolerance,
+      ns, ibm::CouplingAdapt{.enabled = a.enabled, .interval = a.interval, .max_interval = a.max_interval,
+                             .velocity_tolerance = a.velocity_tolerance,
                              .velocity_tolerance_relative = a.velocity_tolerance_relative,
                              .min_level = a.min_level, .wall_level = a.wall_level,
                              .margin = std::max(0, a.membrane_band - 2)});
@@ -114,7 +115,11 @@ std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
   for (int i = 0; i < coupling_->num_capsules(); ++i) {
     const auto& x = coupling_->capsule(i).x;
     extras.push_back({fmt::format("capsule_{}_positions", i), {std::size_t(x.cols()), 3}, {x.data(), x.data() + x.size()}});
+    const auto& xa = coupling_->capsule(i).x_at_adapt;
+    extras.push_back({fmt::format("capsule_{}_positions_at_adapt", i), {std::size_t(xa.cols()), 3},
+                      {xa.data(), xa.data() + xa.size()}});
   }
+  extras.push_back({"coupling_steps_since_adapt", {1}, {static_cast<double>(coupling_->steps_since_adapt())}});
   return extras;
 }
 
@@ -129,7 +134,18 @@ void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras) {
         found = true;
       }
     if (!found) throw io::CheckpointError(fmt::format("checkpoint: no '{}' with {} nodes", name, x.cols()));
+    // The adaptation state (absent from checkpoints older than adapt.max_interval): without
+    // it the run adapts as if it had just done so.
+    auto& xa = coupling_->capsule(i).x_at_adapt;
+    xa = x;
+    for (const auto& e : extras)
+      if (e.name == name + "_at_adapt" && e.values.size() == std::size_t(x.size()))
+        std::copy(e.values.begin(), e.values.end(), xa.data());
   }
+  coupling_->set_steps_since_adapt(0);
+  for (const auto& e : extras)
+    if (e.name == "coupling_steps_since_adapt" && e.values.size() == 1)
+      coupling_->set_steps_since_adapt(static_cast<std::int64_t>(e.values[0]));
 }
 
 }  // namespace capsflow::app

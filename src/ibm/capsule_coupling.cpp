@@ -55,6 +55,8 @@ bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::M
 CapsuleCoupling::CapsuleCoupling(fluid::NavierStokes<3>& ns, CouplingAdapt adapt) : ns_(ns), adapt_(adapt) {
   if (adapt_.interval < 1)
     throw std::invalid_argument(fmt::format("ibm: adapt interval {} must be >= 1", adapt_.interval));
+  if (adapt_.max_interval < 0)
+    throw std::invalid_argument(fmt::format("ibm: adapt max_interval {} must be >= 0", adapt_.max_interval));
   if (adapt_.margin < 0) throw std::invalid_argument(fmt::format("ibm: adapt margin {} must be >= 0", adapt_.margin));
   // The flow solver asks for its body force during its acceleration stage; between
   // coupled steps (or after a failed spreading) there is none.
@@ -74,6 +76,7 @@ int CapsuleCoupling::add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd
     throw std::invalid_argument(fmt::format("ibm: capsule positions have {} nodes, its mesh {}", x.cols(),
                                             model.mesh().node_count()));
   capsules_.push_back({.model = std::move(model), .x = std::move(x), .kernels = kernels});
+  capsules_.back().x_at_adapt = capsules_.back().x;
   return num_capsules() - 1;
 }
 
@@ -161,8 +164,22 @@ tree::AdaptCounts CapsuleCoupling::adapt() {
     counts.leaves = more.leaves;
     counts.cells = more.cells;
   }
+  for (Capsule& c : capsules_) c.x_at_adapt = c.x;
+  since_adapt_ = 0;
   times_.adapt += seconds_since(t0);
   return counts;
+}
+
+bool CapsuleCoupling::adapt_due() const {
+  if (!adapt_.enabled || steps_ % adapt_.interval != 0) return false;
+  if (adapt_.max_interval <= adapt_.interval || since_adapt_ >= adapt_.max_interval) return true;
+  double moved = 0.0;
+  for (const Capsule& c : capsules_)
+    if (c.x_at_adapt.cols() == c.x.cols()) moved = std::max(moved, (c.x - c.x_at_adapt).colwise().norm().maxCoeff());
+  // The band reaches `margin` max-level cells beyond the kernels; at the mean speed since
+  // the last adaptation the nodes must stay within half of that until the forced one.
+  const double projected = moved * static_cast<double>(adapt_.max_interval) / static_cast<double>(since_adapt_);
+  return projected > 0.5 * adapt_.margin * ns_.tree().cell_size(ns_.tree().max_level());
 }
 
 void CapsuleCoupling::compute_forces(int step) {
@@ -246,7 +263,8 @@ CouplingStep CapsuleCoupling::step() {
   times_.spreading += face_seconds_;
   move_nodes(step, out.fluid.dt);
   ++steps_;
-  if (adapt_.enabled && steps_ % adapt_.interval == 0) {
+  ++since_adapt_;
+  if (adapt_due()) {
     out.adapt = adapt();
     out.adapted = true;
   }

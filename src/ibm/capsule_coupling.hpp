@@ -44,6 +44,10 @@ struct KernelChoice {
 struct CouplingAdapt {
   bool enabled = false;              // adapt after every `interval`-th step
   int interval = 1;
+  // > interval: an adaptation may wait, up to this many steps after the last one, while the
+  // nodes, at their mean speed since then, would move less than half the margin by then
+  // (a slowly relaxing capsule needs no new band every few steps). 0: every interval.
+  int max_interval = 0;
   double velocity_tolerance = 1e-2;  // wavelet tolerance on each velocity component
   double velocity_tolerance_relative = 0.0;  // NavierStokes::velocity_tolerance
   int min_level = 0;
@@ -57,6 +61,7 @@ struct Capsule {
   KernelChoice kernels{};
   Eigen::Matrix3Xd forces;    // F(X(t)) of the last step
   Eigen::Matrix3Xd velocity;  // V of the last step
+  Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (CouplingAdapt::max_interval)
   double energy = 0.0;        // E(X(t)) of the last step
   MembraneTags tags;
 };
@@ -106,6 +111,10 @@ class CapsuleCoupling {
   [[nodiscard]] const Capsule& capsule(int i) const { return capsules_.at(i); }
   [[nodiscard]] Capsule& capsule(int i) { return capsules_.at(i); }
   [[nodiscard]] std::int64_t steps() const { return steps_; }
+  // Steps since the last adaptation; a checkpoint keeps it (with each x_at_adapt) so that a
+  // restarted run adapts when the uninterrupted one would.
+  [[nodiscard]] std::int64_t steps_since_adapt() const { return since_adapt_; }
+  void set_steps_since_adapt(std::int64_t n) { since_adapt_ = n; }
   [[nodiscard]] const StageTimes& times() const { return times_; }
   [[nodiscard]] const CellVector& cell_force() const { return force_; }
   [[nodiscard]] const CouplingAdapt& adapt_options() const { return adapt_; }
@@ -124,6 +133,8 @@ class CapsuleCoupling {
   // of a blow-up (stencil errors carry their own).
   [[noreturn]] void fail(int step, const std::string& what, bool unstable = true) const;
   bool touches_wall(const tree::Box<3>& b) const;
+  // Whether stage 6 runs after this step (interval, and max_interval's waiting rule).
+  bool adapt_due() const;
 
   fluid::NavierStokes<3>& ns_;
   CouplingAdapt adapt_;
@@ -132,6 +143,7 @@ class CapsuleCoupling {
   SpreadWorkspace workspace_;
   bool force_ready_ = false;
   std::int64_t steps_ = 0;
+  std::int64_t since_adapt_ = 0;
   StageTimes times_;
   double face_seconds_ = 0.0;  // face-force time inside the last fluid step
   double last_dt_ = 0.0;       // of the last fluid step (0 before the first)

@@ -75,6 +75,9 @@ struct AdaptConfig {
   int wall_level = 0;                // level forced along non-periodic walls (0: off)
   int membrane_band = 4;             // cells of max_level forced around membrane nodes
   int interval = 1;                  // steps between adaptations
+  // > interval: with capsules, an adaptation may wait up to this many steps while the
+  // membrane nodes barely move (ibm::CouplingAdapt::max_interval); 0: every interval.
+  int max_interval = 0;
   bool operator==(const AdaptConfig&) const = default;
 };
 

@@ -96,6 +96,7 @@ void parse_adapt(TableReader r, AdaptConfig& a) {
   r.read("wall_level", a.wall_level);
   r.read("membrane_band", a.membrane_band);
   r.read("interval", a.interval);
+  r.read("max_interval", a.max_interval);
   r.finish();
 }
 

@@ -125,6 +125,9 @@ void check_adapt(const CaseConfig& c, const Checker& ck) {
             fmt::format("must be <= adapt.max_level ({})", a.max_level));
   ck.at_least("adapt.membrane_band", a.membrane_band, 0);
   ck.at_least("adapt.interval", a.interval, 1);
+  if (a.max_interval != 0 && a.max_interval < a.interval)
+    ck.fail("adapt.max_interval", fmt::format("{}", a.max_interval),
+            fmt::format("must be 0 (off) or >= adapt.interval ({})", a.interval));
 }
 
 // The largest semi-axis of the initial shape: what must fit between the walls.

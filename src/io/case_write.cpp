@@ -77,6 +77,7 @@ std::string to_toml(const CaseConfig& c) {
   line("wall_level", fmt::format("{}", c.adapt.wall_level));
   line("membrane_band", fmt::format("{}", c.adapt.membrane_band));
   line("interval", fmt::format("{}", c.adapt.interval));
+  line("max_interval", fmt::format("{}", c.adapt.max_interval));
 
   for (const CapsuleConfig& cap : c.capsules) {
     out += "\n[[capsule]]\n";

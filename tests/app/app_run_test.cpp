@@ -104,13 +104,17 @@ namespace {
 using namespace testing;
 
 // The quick seed case, a few steps: membrane snapshots and final positions are written, the
-// membrane columns are finite, and a restart with a capsule repeats the run exactly.
+// membrane columns are finite, and a restart with a capsule repeats the run exactly. The
+// adaptation may wait (max_interval 4, a 6-cell margin): it adapts after steps 4 and 8, so
+// the restart from step 5 must carry the steps since the last adaptation and the positions
+// then to adapt after step 8 again.
 TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   const fs::path dir = scratch("capsule");
   const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
                            "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 --set capsule[0].nodes=642 "
                            "--set time.t_end=0.04 --set output.interval=5 --set output.diagnostics_interval=1 "
-                           "--set output.checkpoint=true --set output.checkpoint_interval=5 ";
+                           "--set output.checkpoint=true --set output.checkpoint_interval=5 "
+                           "--set adapt.interval=1 --set adapt.max_interval=4 --set adapt.membrane_band=8 ";
   const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
   ASSERT_EQ(r.status, 0) << r.err;
   for (const char* f : {"membrane_000000.vtu", "membrane_000010.vtu", "membrane_final.csv", "checkpoint_000005.h5"})

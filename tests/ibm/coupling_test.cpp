@@ -120,6 +120,44 @@ TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
   EXPECT_LT(error, 1e-12);
 }
 
+// adapt.max_interval: an adaptation due every `interval` steps waits while the nodes, at
+// their mean speed since the last one, would stay within half the band's margin until
+// max_interval steps have passed; it never waits longer. Three speeds in a periodic box
+// (dx = 1/8, margin 2 cells: half the margin is 0.125): at rest and slow (0.2 dt 8 = 0.016)
+// it adapts every 8th step; fast (3.2 dt 8 = 0.26) every step, as without max_interval.
+TEST(Coupling, AdaptationWaitsOnlyWhileNodesAreSlow) {
+  for (const double speed : {0.0, 0.2, 3.2}) {
+    tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
+                     .periodic = {true, true, true}, .max_level = 4});
+    t.refine_to([](const tree::Box<3>&) { return 2; });
+    fluid::FlowOptions<3> o{.Re = 1.0, .stokes = false, .dt = 0.01};
+    for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
+    fluid::NavierStokes<3> ns(t, o);
+    CapsuleCoupling cc(ns, {.enabled = true, .interval = 1, .max_interval = 8, .velocity_tolerance = 1e-2,
+                            .min_level = 2, .margin = 2});
+    membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.4}),
+                                  {.gs = shear_modulus(0.1, 1.0)});
+    const Eigen::Matrix3Xd x0 = model.mesh().nodes;
+    cc.add_capsule(std::move(model), x0);
+    (void)cc.refine_initial();
+    const Eigen::Vector3d u = speed * Eigen::Vector3d(0.8, 0.6, 0.0);
+    for (Index c = 0; c < t.num_cells(); ++c)
+      for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+    std::vector<int> adapted;
+    for (int k = 1; k <= 24; ++k)
+      if (cc.step().adapted) adapted.push_back(k);
+    const double error = membrane::max_node_distance(cc.capsule(0).x, x0.colwise() + u * ns.time());
+    std::printf("speed %.1f: %zu adaptations in 24 steps, max node error %.1e\n", speed, adapted.size(), error);
+    if (speed < 1.0) {
+      EXPECT_EQ(adapted, (std::vector<int>{8, 16, 24})) << "speed " << speed;
+    } else {
+      EXPECT_EQ(adapted.size(), 24u);
+    }
+    EXPECT_LT(error, 1e-12) << "every stencil found its cells: the band moved with the capsule";
+    EXPECT_EQ(cc.steps_since_adapt(), 0);
+  }
+}
+
 // A background body force (here uniform, in a periodic box) acts together with the
 // capsules' force: the fluid accelerates uniformly, u = g t, and an unstressed capsule
 // follows it: X = X0 + g dt^2 n (n + 1) / 2 after n steps.

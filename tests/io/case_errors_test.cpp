@@ -102,6 +102,8 @@ TEST(io_case_errors, NegativeReViscosityOrCfl) {
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncfl = -0.5\n"), HasSubstr("time.cfl = -0.5: must be >= 0"));
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nvelocity_tolerance_relative = -0.01\n"),
               HasSubstr("adapt.velocity_tolerance_relative = -0.01: must be >= 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\ninterval = 4\nmax_interval = 2\n"),
+              HasSubstr("adapt.max_interval = 2: must be 0 (off) or >= adapt.interval (4)"));
 }
 
 // The ratios are read (the message quotes the value) but refused: nothing marks the inner

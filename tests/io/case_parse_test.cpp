@@ -44,6 +44,7 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
   EXPECT_EQ(c.adapt.wall_level, 5);
   EXPECT_EQ(c.adapt.membrane_band, 3);
   EXPECT_EQ(c.adapt.interval, 2);
+  EXPECT_EQ(c.adapt.max_interval, 6);
 
   ASSERT_EQ(c.capsules.size(), 2u);
   const CapsuleConfig& k = c.capsules[0];
