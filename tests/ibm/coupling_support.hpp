@@ -60,6 +60,26 @@ inline SeedSetup seed_setup(const SeedRun& r) {
   return s;
 }
 
+// A triply periodic box [-1, 1]^3 at level 2 (max level 4: dx = 1/8 at the finest) and
+// its flow (Re = 1, dt = 0.01): a capsule can be carried across every side.
+struct PeriodicBox {
+  static tree::Tree<3> make_tree() {
+    tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
+                     .periodic = {true, true, true}, .max_level = 4});
+    t.refine_to([](const tree::Box<3>&) { return 2; });
+    return t;
+  }
+  static fluid::FlowOptions<3> flow(bool stokes) {
+    fluid::FlowOptions<3> o{.Re = 1.0, .stokes = stokes, .dt = 0.01};
+    for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
+    return o;
+  }
+  explicit PeriodicBox(bool stokes) : ns(tree, flow(stokes)) {}
+
+  tree::Tree<3> tree = make_tree();
+  fluid::NavierStokes<3> ns;
+};
+
 // max |u| over the leaves.
 inline double max_velocity(fluid::NavierStokes<3>& ns) {
   double m = 0.0;

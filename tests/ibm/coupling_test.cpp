@@ -96,12 +96,9 @@ TEST(Coupling, PrestressedCapsuleAtRestBarelyMoves) {
 // with it), without deforming: the interpolation of a uniform field is exact (weights sum
 // to 1) and the flow stays uniform (the spread force is zero to round-off).
 TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
-  tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
-                   .periodic = {true, true, true}, .max_level = 4});
-  t.refine_to([](const tree::Box<3>&) { return 2; });
-  fluid::FlowOptions<3> o{.Re = 1.0, .stokes = false, .dt = 0.01};
-  for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
-  fluid::NavierStokes<3> ns(t, o);
+  test::PeriodicBox box(/*stokes=*/false);
+  tree::Tree<3>& t = box.tree;
+  fluid::NavierStokes<3>& ns = box.ns;
   CapsuleCoupling cc(ns, {.enabled = true, .velocity_tolerance = 1e-2, .min_level = 2});
   membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.4}),
                                 {.gs = shear_modulus(0.1, 1.0)});
@@ -127,12 +124,9 @@ TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
 // it adapts every 8th step; fast (3.2 dt 8 = 0.26) every step, as without max_interval.
 TEST(Coupling, AdaptationWaitsOnlyWhileNodesAreSlow) {
   for (const double speed : {0.0, 0.2, 3.2}) {
-    tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
-                     .periodic = {true, true, true}, .max_level = 4});
-    t.refine_to([](const tree::Box<3>&) { return 2; });
-    fluid::FlowOptions<3> o{.Re = 1.0, .stokes = false, .dt = 0.01};
-    for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
-    fluid::NavierStokes<3> ns(t, o);
+    test::PeriodicBox box(/*stokes=*/false);
+    tree::Tree<3>& t = box.tree;
+    fluid::NavierStokes<3>& ns = box.ns;
     CapsuleCoupling cc(ns, {.enabled = true, .interval = 1, .max_interval = 8, .velocity_tolerance = 1e-2,
                             .min_level = 2, .margin = 2});
     membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.4}),
@@ -162,12 +156,8 @@ TEST(Coupling, AdaptationWaitsOnlyWhileNodesAreSlow) {
 // capsules' force: the fluid accelerates uniformly, u = g t, and an unstressed capsule
 // follows it: X = X0 + g dt^2 n (n + 1) / 2 after n steps.
 TEST(Coupling, BackgroundForceActsWithTheCapsules) {
-  tree::Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0, .origin = {-1, -1, -1},
-                   .periodic = {true, true, true}, .max_level = 4});
-  t.refine_to([](const tree::Box<3>&) { return 2; });
-  fluid::FlowOptions<3> o{.Re = 1.0, .stokes = true, .dt = 0.01};
-  for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
-  fluid::NavierStokes<3> ns(t, o);
+  test::PeriodicBox box(/*stokes=*/true);
+  fluid::NavierStokes<3>& ns = box.ns;
   CapsuleCoupling cc(ns, {.enabled = true, .min_level = 2});
   membrane::MembraneModel model(membrane::make_icosphere({.level = 3, .radius = 0.4}), {.gs = 10.0});
   const Eigen::Matrix3Xd x0 = model.mesh().nodes;
