@@ -65,7 +65,7 @@ class EllipticOperator {
       if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux(lv, c, k, n, h, a);
       else sum += alpha_.at(c, k) * (a[n] - ac) / h;
     }
-    return sum / h + lambda_.at(c) * ac;
+    return sum / h + lambda_term(c, ac);
   }
 
   // res = b - L(a) on the leaves; returns max |res| (a synced).
@@ -90,30 +90,58 @@ class EllipticOperator {
   }
 
   // `sweeps` smoothing sweeps of L(da) = res on the active cells of level l. The halo of
-  // level l must hold the coarse correction; ghosts are refilled here.
+  // level l must hold the coarse correction; ghosts are refilled here. With `corrected`
+  // not empty, its leaves of level l get += da once da is final there: fused into the last
+  // pass, which saves a pass over the finest level per cycle.
   void relax(int l, std::span<double> da, std::span<const double> res, int sweeps,
-             const MultigridOptions& opt, std::span<double> scratch) const {
+             const MultigridOptions& opt, std::span<double> scratch, std::span<double> corrected = {}) const {
     const tree::Level<D>& lv = tree_.level(l);
-    const double h2 = tree_.cell_size(l) * tree_.cell_size(l);
+    const Diagonal diag{tree_.cell_size(l) * tree_.cell_size(l), *this};
+    const bool correct = !corrected.empty();
     for (int s = 0; s < sweeps; ++s) {
+      const bool last = s + 1 == sweeps;
       if (opt.smoother == Smoother::red_black) {
         // No ghost refill between the colours: a face ghost's source is the cell it
         // touches, so black cells never read the ghost of a red one.
-        relax_colour<0>(lv, h2, da, res);
-        relax_colour<1>(lv, h2, da, res);
+        relax_colour<0>(lv, diag, da, res, {});
+        relax_colour<1>(lv, diag, da, res, correct && last ? corrected : std::span<double>{});
       } else {
         const Index n = lv.n_active, base = lv.base;
         const double w = opt.jacobi_weight;
 #pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
-        for (Index i = 0; i < n; ++i) scratch[base + i] = (1.0 - w) * da[base + i] + w * updated(lv, base + i, h2, da, res);
+        for (Index i = 0; i < n; ++i) scratch[base + i] = (1.0 - w) * da[base + i] + w * updated(lv, base + i, diag, da, res);
 #pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
-        for (Index i = 0; i < n; ++i) da[base + i] = scratch[base + i];
+        for (Index i = 0; i < n; ++i) {
+          da[base + i] = scratch[base + i];
+          if (correct && last && lv.leaf[i]) corrected[base + i] += da[base + i];
+        }
       }
       tree_.fill_ghosts(l, da, correction_bc_);
     }
+    if (correct && sweeps == 0)
+      for (Index i = 0; i < lv.n_active; ++i)
+        if (lv.leaf[i]) corrected[lv.base + i] += da[lv.base + i];
   }
 
  private:
+  static constexpr bool kConstantDiagonal = Alpha::kConstant && Lambda::kConstant;
+
+  // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
+  // (the same on every cell of a level): a multiplication per update instead of a
+  // division, which was the critical path of a sweep.
+  struct Diagonal {
+    double h2 = 0.0, inverse = 0.0;
+    Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
+      if constexpr (kConstantDiagonal) inverse = 1.0 / (F * op.alpha_.value - h2 * op.lambda_.at(0));
+    }
+  };
+
+  // lambda_c a_c, left out for lambda = 0 (0 * a is not folded away by the compiler).
+  double lambda_term(Index c, double ac) const {
+    if constexpr (std::is_same_v<Lambda, ZeroCells>) return 0.0;
+    else return lambda_.at(c) * ac;
+  }
+
   // L(a)_c with the same-level stencil; nb(k) is c's neighbour across face k.
   template <class Neighbor>
   double plain(Index c, double inv_h2, std::span<const double> a, Neighbor nb) const {
@@ -127,7 +155,20 @@ class EllipticOperator {
 #pragma GCC unroll 6
       for (int k = 0; k < F; ++k) sum += alpha_.at(c, k) * (a[nb(k)] - ac);
     }
-    return sum * inv_h2 + lambda_.at(c) * ac;
+    return sum * inv_h2 + lambda_term(c, ac);
+  }
+
+  // Whether the 2^D cells of a group are all leaves without a finer neighbour.
+  static bool all_plain_leaves(const std::uint8_t* leaf) {
+    bool all = true;
+    for (int b = 0; b < C; ++b) all &= leaf[b] == tree::Level<D>::kLeaf;
+    return all;
+  }
+
+  template <int N>
+  static double max_of(const double* v) {
+    if constexpr (N == 1) return v[0];
+    else return std::max(max_of<N / 2>(v), max_of<N / 2>(v + N / 2));
   }
 
   // f(c, L(a)_c) on every leaf, returning a value whose maximum lands in `worst`. Levels
@@ -152,15 +193,27 @@ class EllipticOperator {
         const Index first = base + g * C;
         const Index* gf = lv.group_face_row(g);
         const std::uint8_t* leaf = lv.leaf.data() + (first - base);
+        double value[C];
+        if (all_plain_leaves(leaf)) {  // the common case, without a branch per cell
+#pragma GCC unroll 8
+          for (int b = 0; b < C; ++b)
+            value[b] = f(first + b, plain(first + b, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); }));
+          w = std::max(w, max_of<C>(value));
+          continue;
+        }
 #pragma GCC unroll 8
         for (int b = 0; b < C; ++b) {
+          value[b] = 0.0;
           if (!leaf[b]) continue;
           const Index c = first + b;
           const double la = leaf[b] == tree::Level<D>::kLeafNextToFiner
                                 ? apply(lv, c, h, a)
                                 : plain(c, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
-          w = std::max(w, f(c, la));
+          value[b] = f(c, la);
         }
+        // A pairwise maximum: one running max per cell was a chain of dependent
+        // instructions as long as the sweep, the residual's critical path.
+        w = std::max(w, max_of<C>(value));
       }
     }
     worst = w;
@@ -168,12 +221,14 @@ class EllipticOperator {
 
   // The relaxed value of da at c from its neighbours' current values; nb(k) as in plain().
   template <class Neighbor>
-  double updated(Index c, double h2, std::span<const double> da, std::span<const double> res, Neighbor nb) const {
+  double updated(Index c, const Diagonal& dg, std::span<const double> da, std::span<const double> res, Neighbor nb) const {
+    const double h2 = dg.h2;
     double off = 0.0, diag = 0.0;
     if constexpr (Alpha::kConstant) {
 #pragma GCC unroll 6
       for (int k = 0; k < F; ++k) off += da[nb(k)];
       off *= alpha_.value;
+      if constexpr (kConstantDiagonal) return (off - h2 * res[c]) * dg.inverse;
       diag = F * alpha_.value;
     } else {
 #pragma GCC unroll 6
@@ -185,23 +240,39 @@ class EllipticOperator {
     }
     return (off - h2 * res[c]) / (diag - h2 * lambda_.at(c));
   }
-  double updated(const tree::Level<D>& lv, Index c, double h2, std::span<const double> da,
+  double updated(const tree::Level<D>& lv, Index c, const Diagonal& dg, std::span<const double> da,
                  std::span<const double> res) const {
     const Index* row = lv.face_row(c);
-    return updated(c, h2, da, res, [row](int k) { return row[k]; });
+    return updated(c, dg, da, res, [row](int k) { return row[k]; });
   }
 
   // Gauss-Seidel on one colour. Active cells of levels >= 1 come in sibling groups of 2^D
   // in child order, and the parity of i+j+k is the parity of the child number's bits; the
   // neighbours come from the group's row (tree::group_neighbor), folded to constants.
+  // A non-empty `corrected` gets += da on the leaves after the update (the last colour).
   template <int Colour>
-  void relax_colour(const tree::Level<D>& lv, double h2, std::span<double> da, std::span<const double> res) const {
+  void relax_colour(const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
+                    std::span<double> corrected) const {
     const Index base = lv.base;
     if (base == 0) {  // level 0: roots are not sibling groups
       for (Index i = 0; i < lv.n_active; ++i)
-        if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == Colour) da[i] = updated(lv, i, h2, da, res);
+        if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == Colour) da[i] = updated(lv, i, dg, da, res);
+      if (!corrected.empty())
+        for (Index i = 0; i < lv.n_active; ++i)
+          if (lv.leaf[i]) corrected[i] += da[i];
       return;
     }
+    if (!corrected.empty()) {
+      relax_groups<Colour, true>(lv, dg, da, res, corrected);
+      return;
+    }
+    relax_groups<Colour, false>(lv, dg, da, res, corrected);
+  }
+
+  template <int Colour, bool kCorrect>
+  void relax_groups(const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
+                    std::span<double> corrected) const {
+    const Index base = lv.base;
     static constexpr auto kOfColour = [] {
       std::array<int, C / 2> of{};
       int next = 0;
@@ -217,7 +288,13 @@ class EllipticOperator {
 #pragma GCC unroll 8
       for (int j = 0; j < C / 2; ++j) {
         const int b = kOfColour[j];
-        da[first + b] = updated(first + b, h2, da, res, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+        da[first + b] = updated(first + b, dg, da, res, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+      }
+      if constexpr (kCorrect) {
+        const std::uint8_t* leaf = lv.leaf.data() + (first - base);
+#pragma GCC unroll 8
+        for (int b = 0; b < C; ++b)
+          if (leaf[b]) corrected[first + b] += da[first + b];
       }
     }
   }

@@ -94,10 +94,11 @@ void remove_mean(const tree::Tree<D>& t, std::span<double> r) {
 }  // namespace detail
 
 // One cycle: da (on the leaves) approximately solves L(da) = res with homogeneous
-// boundary conditions. res is overwritten on the parents (restriction).
+// boundary conditions. res is overwritten on the parents (restriction). A non-empty
+// `corrected` gets += da on the leaves, each level as soon as its da is final.
 template <class Op>
 void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span<double> scratch,
-            const MultigridOptions& opt) {
+            const MultigridOptions& opt, std::span<double> corrected = {}) {
   const auto& t = op.tree();
   for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
   for (int l = 0; l <= t.depth(); ++l) {
@@ -109,7 +110,7 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
       t.fill_halo(l, da, tree::Prolongation::linear);
     }
     t.fill_ghosts(l, da, op.correction_bc());
-    op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch);
+    op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch, corrected);
   }
 }
 
@@ -146,8 +147,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   double pq_old = 0.0;
   while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance)) {
     if (!opt.krylov) {
-      vcycle(op, res, da, scratch, opt);
-      t.for_each_leaf([&](tree::Index c) { a[c] += da[c]; });
+      vcycle(op, res, da, scratch, opt, a);  // a += da
     } else {
       // z = B r (res is restricted in place: keep the leaf residual for the step).
       t.for_each_leaf([&](tree::Index c) { saved[c] = res[c]; });
