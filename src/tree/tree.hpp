@@ -101,6 +101,11 @@ struct Level {
   // neighbours (a resolution jump to a finer region: fluxes there need the fine side).
   std::vector<std::uint8_t> leaf;
   std::vector<Index> halo_parent;        // one per group of 2^D halo cells: the coarse leaf
+  // The halo groups (0-based within the level's halo) that a face stencil of an active cell
+  // reads, directly or through a ghost, or that the quadratic prolongation of a read halo
+  // group of the next level reads (its coarse leaf's 3^D block). Around a thin refined
+  // shell about half the groups: the others touch the fine region by an edge or a corner.
+  std::vector<Index> halo_read;
   std::vector<Index> ghost_source;       // the cell a ghost takes its value from, or kNone
   std::vector<std::int8_t> ghost_side;   // the side (2d or 2d+1) it is filled across
   std::vector<Coords<D>> ghost_coords;   // integer coordinates (outside the brick)
@@ -212,8 +217,10 @@ class Tree {
   // --- one mechanism for every value outside the leaves
   // Parents of level l get the volume average of their children.
   void restrict_level(int l, std::span<double> v) const;
-  // Halo cells of level l get values prolonged from their coarse leaf (level l-1).
-  void fill_halo(int l, std::span<double> v, Prolongation p) const;
+  // Halo cells of level l get values prolonged from their coarse leaf (level l-1): all of
+  // them, or only the groups in Level::halo_read (enough for face stencils).
+  enum class HaloCells : unsigned char { all, face_read };
+  void fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which = HaloCells::all) const;
   // Active cells of level l get values prolonged from their parents (level l-1), whose
   // face neighbours must hold valid values (the multigrid's coarse-to-fine step).
   void prolong_level(int l, std::span<double> v, Prolongation p) const;
@@ -224,9 +231,10 @@ class Tree {
   void sync(std::span<double> v, const BoundaryConditions<D>& bc,
             Prolongation p = Prolongation::linear) const;
   void sync(FieldId f);
-  // sync for readers of the leaves and their neighbours only (the multigrid's residual):
-  // parents are restricted only on the levels a halo prolongation reads (none on a
-  // uniform tree); the other parents keep stale values.
+  // sync for readers of the leaves and their face neighbours only (the multigrid's
+  // residual): parents are restricted only on the levels a halo prolongation reads (none
+  // on a uniform tree) and only the halo groups in Level::halo_read are filled; the other
+  // parents and halo cells keep stale values.
   void sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const;
 
   // --- adaptation
@@ -258,6 +266,9 @@ class Tree {
   void finish_ghosts(Level<D>& lv, int l) const;
   void transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells);
   void collect_leaves();
+  // Level::halo_read of every level, from the deepest up (a level's list depends on the
+  // next one's).
+  void collect_halo_read();
   // Balances flags_ (per cell: +1 split, -1 merge candidate), decides, rebuilds.
   AdaptCounts decide_and_rebuild(int min_level);
 

@@ -72,16 +72,19 @@ void Tree<D>::restrict_level(int l, std::span<double> v) const {
 }
 
 template <int D>
-void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p) const {
+void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which) const {
   constexpr int C = kChildren<D>;
   if (l <= 0 || l > depth_) return;
   const Level<D>& lv = levels_[l];
   const Level<D>& coarse = levels_[l - 1];
-  const Index groups = lv.n_halo / C;
+  const bool all = which == HaloCells::all;
+  const Index groups = all ? lv.n_halo / C : static_cast<Index>(lv.halo_read.size());
+  const Index* listed = lv.halo_read.data();
   const Index first = lv.halo_begin();
   if (p == Prolongation::quadratic) {
 #pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
-    for (Index g = 0; g < groups; ++g) {
+    for (Index i = 0; i < groups; ++i) {
+      const Index g = all ? i : listed[i];
       double block[ipow(3, D)];
       block_of<D>(coarse, lv.halo_parent[g], v, block);
       quadratic_children<D>(block, v.data() + first + g * C);
@@ -89,7 +92,8 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p) const {
     return;
   }
 #pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
-  for (Index g = 0; g < groups; ++g) {
+  for (Index i = 0; i < groups; ++i) {
+    const Index g = all ? i : listed[i];
     const auto s = slopes_of<D>(coarse, lv.halo_parent[g], v, p);
     for (int k = 0; k < C; ++k) v[first + g * C + k] = s.child(k);
   }
@@ -168,7 +172,7 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
     }
   for (int l = depth_ - 1; l >= coarsest_read; --l) restrict_level(l, v);
   for (int l = 0; l <= depth_; ++l) {
-    fill_halo(l, v, p);
+    fill_halo(l, v, p, HaloCells::face_read);
     fill_ghosts(l, v, bc);
   }
 }
@@ -222,7 +226,7 @@ void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, 
 
 template FieldId Tree<2>::add_field(FieldSpec<2>);
 template void Tree<2>::restrict_level(int, std::span<double>) const;
-template void Tree<2>::fill_halo(int, std::span<double>, Prolongation) const;
+template void Tree<2>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
 template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
@@ -231,7 +235,7 @@ template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryCond
 template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
 template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
-template void Tree<3>::fill_halo(int, std::span<double>, Prolongation) const;
+template void Tree<3>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
 template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;

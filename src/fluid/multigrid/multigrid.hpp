@@ -107,7 +107,7 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
       for (tree::Index c = lv.active_begin(); c < lv.active_end(); ++c) da[c] = 0.0;
     } else {
       t.prolong_level(l, da, tree::Prolongation::linear);
-      t.fill_halo(l, da, tree::Prolongation::linear);
+      t.fill_halo(l, da, tree::Prolongation::linear, tree::Tree<Op::kDimension>::HaloCells::face_read);
     }
     t.fill_ghosts(l, da, op.correction_bc());
     op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch, corrected);
