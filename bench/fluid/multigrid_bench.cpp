@@ -6,6 +6,7 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <vector>
@@ -42,32 +43,45 @@ double source(const tree::Point<3>& x, const tree::TreeOptions<3>& o) {
   return v;
 }
 
-void run(benchmark::State& state, tree::Tree<3>& t) {
-  const auto bc = tree::BoundaryConditions<3>::all(tree::BcKind::dirichlet);
-  fluid::EllipticOperator<3> op(t, fluid::ConstantFaces{1.0}, fluid::ZeroCells{}, bc);
-  std::vector<double> a(t.num_cells(), 0.0), b(t.num_cells(), 0.0);
-  for (const auto c : t.leaves()) b[c] = source(t.center(c), t.options());
+// A Poisson problem on a tree with what a solve needs (Dirichlet walls, the source above).
+struct PoissonCase {
+  explicit PoissonCase(const tree::Tree<3>& tree)
+      : t(tree),
+        op(t, fluid::ConstantFaces{1.0}, fluid::ZeroCells{}, tree::BoundaryConditions<3>::all(tree::BcKind::dirichlet)),
+        a(t.num_cells(), 0.0),
+        b(t.num_cells(), 0.0) {
+    for (const auto c : t.leaves()) b[c] = source(t.center(c), t.options());
+  }
+  static constexpr int kCycles = 6;
+  // Six V-cycles from zero (residuals included, as in a solve); returns seconds per cycle.
+  double timed_cycles(double* reduction = nullptr) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto s = fluid::solve(op, a, b, ws, {.tolerance = 0.0, .min_cycles = kCycles, .max_cycles = kCycles, .warm_start = false});
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (reduction) *reduction = s.mean_reduction(4);
+    return seconds / kCycles;
+  }
+  const tree::Tree<3>& t;
+  fluid::EllipticOperator<3> op;
+  std::vector<double> a, b;
   fluid::MultigridWorkspace ws;
-  const MultigridOptions base{.tolerance = 1e-3};
+};
 
+void run(benchmark::State& state, tree::Tree<3>& t) {
+  PoissonCase p(t);
   // Cold: from zero to 1e-3. Warm: the right-hand side changes by 1%, as between steps.
-  const auto cold = fluid::solve(op, a, b, ws, {.tolerance = 1e-3, .warm_start = false});
-  for (const auto c : t.leaves()) b[c] *= 1.01;
-  const auto warm = fluid::solve(op, a, b, ws, base);
+  const auto cold = fluid::solve(p.op, p.a, p.b, p.ws, {.tolerance = 1e-3, .warm_start = false});
+  for (const auto c : t.leaves()) p.b[c] *= 1.01;
+  const auto warm = fluid::solve(p.op, p.a, p.b, p.ws, {.tolerance = 1e-3});
 
-  constexpr int kCycles = 6;
   double seconds = 0.0;
   double reduction = 0.0;
   std::int64_t n = 0;
   for (auto _ : state) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto s = fluid::solve(op, a, b, ws,
-                                {.tolerance = 0.0, .min_cycles = kCycles, .max_cycles = kCycles, .warm_start = false});
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    reduction = s.mean_reduction(4);
+    seconds += p.timed_cycles(&reduction);
     ++n;
   }
-  const double per_cycle = seconds / double(n) / kCycles;
+  const double per_cycle = seconds / double(n);
   const double sweep = bench::dense_jacobi_sweep_seconds(t.num_leaves());  // the unknowns
   state.counters["cells"] = t.num_cells();
   state.counters["leaves"] = t.num_leaves();
@@ -85,6 +99,31 @@ void BM_MultigridUniform(benchmark::State& state) {
   run(state, t);
 }
 BENCHMARK(BM_MultigridUniform)->Name("multigrid/poisson_uniform")->Arg(6)->Arg(7)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+
+// O(N): the cost per leaf of a V-cycle on 128^3 against 64^3. Timed alternately (one
+// solve of each per iteration) so that the machine's drift over a run, which is larger
+// than the effect measured, hits both alike; medians over the iterations.
+void BM_MultigridUniformScaling(benchmark::State& state) {
+  const tree::Tree<3> small = uniform_cube(6), large = uniform_cube(7);
+  PoissonCase p_small(small), p_large(large);
+  std::vector<double> ns_small, ns_large;
+  (void)p_small.timed_cycles();
+  (void)p_large.timed_cycles();
+  for (auto _ : state) {
+    ns_small.push_back(p_small.timed_cycles() / small.num_leaves() * 1e9);
+    ns_large.push_back(p_large.timed_cycles() / large.num_leaves() * 1e9);
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double s = median(ns_small), l = median(ns_large);
+  state.counters["threads"] = omp_get_max_threads();
+  state.counters["ns_per_cell_per_vcycle_64"] = s;
+  state.counters["ns_per_cell_per_vcycle_128"] = l;
+  state.counters["ratio_128_to_64"] = l / s;  // target <= 1.2
+}
+BENCHMARK(BM_MultigridUniformScaling)->Name("multigrid/poisson_uniform_scaling")->Unit(benchmark::kMillisecond)->MinTime(5.0);
 
 void BM_MultigridSeedShell(benchmark::State& state) {
   tree::Tree<3> t = seed_shell_tree();

@@ -129,10 +129,13 @@ class EllipticOperator {
   // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
   // (the same on every cell of a level): a multiplication per update instead of a
   // division, which was the critical path of a sweep.
+  // The constants are copied in (alpha too) and the sweeps take a local copy: a store to
+  // da could otherwise alias them, and the compiler reloaded them after every update.
   struct Diagonal {
-    double h2 = 0.0, inverse = 0.0;
+    double h2 = 0.0, inverse = 0.0, alpha = 0.0;
     Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
-      if constexpr (kConstantDiagonal) inverse = 1.0 / (F * op.alpha_.value - h2 * op.lambda_.at(0));
+      if constexpr (Alpha::kConstant) alpha = op.alpha_.value;
+      if constexpr (kConstantDiagonal) inverse = 1.0 / (F * alpha - h2 * op.lambda_.at(0));
     }
   };
 
@@ -225,11 +228,12 @@ class EllipticOperator {
     const double h2 = dg.h2;
     double off = 0.0, diag = 0.0;
     if constexpr (Alpha::kConstant) {
+      off = da[nb(0)];
 #pragma GCC unroll 6
-      for (int k = 0; k < F; ++k) off += da[nb(k)];
-      off *= alpha_.value;
+      for (int k = 1; k < F; ++k) off += da[nb(k)];
+      off *= dg.alpha;
       if constexpr (kConstantDiagonal) return (off - h2 * res[c]) * dg.inverse;
-      diag = F * alpha_.value;
+      diag = F * dg.alpha;
     } else {
 #pragma GCC unroll 6
       for (int k = 0; k < F; ++k) {
@@ -270,7 +274,7 @@ class EllipticOperator {
   }
 
   template <int Colour, bool kCorrect>
-  void relax_groups(const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
+  void relax_groups(const tree::Level<D>& lv, const Diagonal dg, std::span<double> da, std::span<const double> res,
                     std::span<double> corrected) const {
     const Index base = lv.base;
     static constexpr auto kOfColour = [] {
