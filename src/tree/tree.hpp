@@ -110,6 +110,7 @@ struct Level {
   std::vector<std::int8_t> ghost_side;   // the side (2d or 2d+1) it is filled across
   std::vector<Coords<D>> ghost_coords;   // integer coordinates (outside the brick)
   std::vector<Index> ghost_fill;         // ghosts with a source, faces before edges before corners
+  Index ghost_fill_faces = 0;            // how many of them are face ghosts (sources inside)
   // Scratch of the rebuild, kept to avoid allocation.
   std::vector<Index> old_index;          // active cells: the same cell in the previous tree
   std::vector<std::uint8_t> mark;

@@ -212,7 +212,7 @@ void Tree<D>::finish_ghosts(Level<D>& lv, int l) const {
   // Faces first, then edges, then corners: each is filled from one with fewer outside
   // directions. Ghosts no active cell reads (the outer children of ghosts) have no source.
   lv.ghost_fill.clear();
-  for (int outside = 1; outside <= D; ++outside)
+  for (int outside = 1; outside <= D; ++outside) {
     for (Index g = 0; g < lv.n_ghost; ++g) {
       if (lv.ghost_source[g] == kNone) continue;
       int count = 0;
@@ -220,6 +220,8 @@ void Tree<D>::finish_ghosts(Level<D>& lv, int l) const {
         count += lv.ghost_coords[g][d] < 0 || lv.ghost_coords[g][d] >= extent(options_, d, l);
       if (count == outside) lv.ghost_fill.push_back(lv.ghost_begin() + g);
     }
+    if (outside == 1) lv.ghost_fill_faces = static_cast<Index>(lv.ghost_fill.size());
+  }
 }
 
 template <int D>

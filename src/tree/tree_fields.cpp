@@ -127,11 +127,18 @@ void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D
       mul[s] = dirichlet ? -1.0 : 1.0;
       add[s] = dirichlet ? 2.0 * bc.side[s].value : h * bc.side[s].value;
     }
-    for (const Index g : lv.ghost_fill) {
+    auto fill = [&](Index g) {
       const Index local = g - g0;
       const int side = lv.ghost_side[local];
       v[g] = add[side] + mul[side] * v[lv.ghost_source[local]];
-    }
+    };
+    // Face ghosts read active or halo cells only, so they go in parallel (a refined wall
+    // has many; the multigrid refills them after every sweep). Edges and corners read
+    // face ghosts: after them, in order.
+    const Index faces = lv.ghost_fill_faces, all = static_cast<Index>(lv.ghost_fill.size());
+#pragma omp parallel for schedule(static) if (faces > kParallelMin)
+    for (Index i = 0; i < faces; ++i) fill(lv.ghost_fill[i]);
+    for (Index i = faces; i < all; ++i) fill(lv.ghost_fill[i]);
     return;
   }
   for (const Index g : lv.ghost_fill) {

@@ -4,6 +4,7 @@
 // stay in place (a region that follows a sphere at each resolution moves its jumps by
 // O(h) and makes max-norm convergence orders noisy).
 #include <algorithm>
+#include <cmath>
 #include <utility>
 #include <vector>
 

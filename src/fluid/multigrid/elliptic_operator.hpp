@@ -27,6 +27,13 @@
 
 namespace capsflow::fluid {
 
+// Levels relaxed by several threads: in-place Gauss-Seidel makes each thread read, in
+// every colour pass, cache lines the other has just written along the boundary between
+// their ranges, and those transfers cost more than half the work of a small level (seed
+// shell, 2 threads: a level of 21 568 cells relaxed in 38 us alone, 45 us split; 84 288
+// cells 199 -> 134 us).
+inline constexpr Index kRelaxParallelMin = 32768;
+
 template <int D, class Alpha = ConstantFaces, class Lambda = ZeroCells>
 class EllipticOperator {
  public:
@@ -127,12 +134,6 @@ class EllipticOperator {
 
  private:
   static constexpr bool kConstantDiagonal = Alpha::kConstant && Lambda::kConstant;
-
-  // Gauss-Seidel in place: in every colour pass each thread reads cache lines the other
-  // has just written along the boundary between their ranges, and those transfers cost
-  // more than half the work of a small level (seed shell, 2 threads: a level of 21 568
-  // cells relaxed in 38 us alone, 45 us split; 84 288 cells 199 -> 134 us).
-  static constexpr Index kRelaxParallelMin = 32768;
 
   // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
   // (the same on every cell of a level): a multiplication per update instead of a
