@@ -96,6 +96,7 @@ struct Level {
   // bit d of b differs from side, else group_face[side] + (b ^ 2^d): stencil sweeps read
   // 2D indices per group instead of 2D per cell (see group_neighbor).
   std::vector<Index> group_face;
+  std::vector<Index> group_parent;       // levels >= 1, one per sibling group: the parent (level l-1)
   std::vector<Index> first_child;        // every slot: first of 2^D contiguous children, or kNone
   // Active cells: 0 for a parent, 1 for a leaf, 2 for a leaf with a parent among its face
   // neighbours (a resolution jump to a finer region: fluxes there need the fine side).

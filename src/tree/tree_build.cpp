@@ -264,6 +264,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
   nx.face.resize(static_cast<std::size_t>(nx.n_active) * kFaces<D>);
   nx.diag.resize(static_cast<std::size_t>(nx.n_active) * kDiagonals<D>);
   nx.group_face.resize(static_cast<std::size_t>(parents) * kFaces<D>);
+  nx.group_parent.resize(parents);
   nx.first_child.assign(nx.size(), kNone);
   nx.leaf.resize(nx.n_active);
   nx.old_index.resize(nx.n_active);
@@ -278,6 +279,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
     Index& fc = cur.first_child[i];
     if (!cur.leaf[i]) {
       fc = next_active;
+      nx.group_parent[(next_active - nx.active_begin()) / C] = cur_base + i;
       next_active += C;
     } else if (cur.mark[i]) {
       fc = next_halo;
@@ -451,7 +453,7 @@ std::size_t Tree<D>::topology_bytes() const {
   std::size_t bytes = leaves_.size() * sizeof(Index) + root_index_.size() * sizeof(Index);
   for (int l = 0; l <= depth_; ++l) {
     const Level<D>& lv = levels_[l];
-    bytes += lv.keys.size() * sizeof(Key) + lv.face.size() * sizeof(Index) + lv.group_face.size() * sizeof(Index) +
+    bytes += lv.keys.size() * sizeof(Key) + lv.face.size() * sizeof(Index) + (lv.group_face.size() + lv.group_parent.size()) * sizeof(Index) +
              lv.diag.size() * sizeof(Index) + lv.first_child.size() * sizeof(Index) +
              lv.leaf.size() + (lv.halo_parent.size() + lv.halo_read.size()) * sizeof(Index) +
              lv.ghost_source.size() * sizeof(Index) + lv.ghost_side.size() +

@@ -122,6 +122,14 @@ void check_invariants(const Tree<D>& t) {
           ASSERT_EQ(group_neighbor(first, lv.group_face_row(group), static_cast<int>(c - first), k), lv.face_row(c)[k])
               << "level " << l << " cell " << c << " face " << k;
       }
+      // Each group's parent has it as its children.
+      ASSERT_EQ(lv.group_parent.size(), static_cast<std::size_t>(lv.n_active / kChildren<D>));
+      const Level<D>& up = t.level(l - 1);
+      for (Index g = 0; g < lv.n_active / kChildren<D>; ++g) {
+        const Index p = lv.group_parent[g];
+        ASSERT_TRUE(p >= up.active_begin() && p < up.active_end() && !up.is_leaf(p));
+        ASSERT_EQ(up.first_child[p - up.base], lv.base + g * kChildren<D>);
+      }
     }
     // 8. Halo cells are children of leaves.
     for (Index g = 0; g < lv.n_halo / kChildren<D>; ++g) {

@@ -77,25 +77,27 @@ class EllipticOperator {
     return sum * (1.0 / (h * h)) + lambda_term(c, ac);
   }
 
-  // res = b - L(a) on the leaves; returns max |res| (a synced).
+  // res = b - L(a) on the leaves, and on every parent the volume mean of its children's
+  // (the restriction a V-cycle starts from, done here while the group is in cache);
+  // returns max |res| over the leaves (a synced).
   double residual(std::span<const double> a, std::span<const double> b, std::span<double> res) const {
     double worst = 0.0;
     // Spans captured by value: through references the loop reloads their data pointers
     // after every store.
-    for_each_leaf_value(a, [res, b](Index c, double la) {
+    for_each_leaf_value<true>(a, [res, b](Index c, double la) {
       res[c] = b[c] - la;
       return std::abs(res[c]);
-    }, worst);
+    }, worst, res);
     return worst;
   }
 
   // out = L(a) on the leaves (a synced).
   void apply_leaves(std::span<const double> a, std::span<double> out) const {
     double unused = 0.0;
-    for_each_leaf_value(a, [out](Index c, double la) {
+    for_each_leaf_value<false>(a, [out](Index c, double la) {
       out[c] = la;
       return 0.0;
-    }, unused);
+    }, unused, out);
   }
 
   // `sweeps` smoothing sweeps of L(da) = res on the active cells of level l. The halo of
@@ -185,11 +187,14 @@ class EllipticOperator {
 
   // f(c, L(a)_c) on every leaf, returning a value whose maximum lands in `worst`. Levels
   // >= 1 are walked by sibling groups (2D neighbour indices per group, not per cell);
-  // leaves next to a finer region take the flux-matching path through their rows.
-  template <class Fn>
-  void for_each_leaf_value(std::span<const double> a, Fn f, double& worst) const {
+  // leaves next to a finer region take the flux-matching path through their rows. With
+  // kRestrict, each group's parent then gets the mean of out over the group (f has
+  // written the leaves; the deepest level goes first, so parents below are done), as
+  // Tree::restrict_level would.
+  template <bool kRestrict, class Fn>
+  void for_each_leaf_value(std::span<const double> a, Fn f, double& worst, std::span<double> out) const {
     double w = 0.0;
-    for (int l = 0; l <= tree_.depth(); ++l) {
+    for (int l = tree_.depth(); l >= 0; --l) {
       const tree::Level<D>& lv = tree_.level(l);
       const double h = tree_.cell_size(l);
       const Index base = lv.base;
@@ -200,6 +205,14 @@ class EllipticOperator {
       }
       const Index groups = lv.n_active / C;
       const double inv_h2 = 1.0 / (h * h);
+      const Index* parent = lv.group_parent.data();
+      auto restrict_group = [out, parent](Index g, Index first) {
+        if constexpr (kRestrict) {
+          double sum = 0.0;
+          for (int b = 0; b < C; ++b) sum += out[first + b];
+          out[parent[g]] = sum * (1.0 / C);
+        }
+      };
 #pragma omp parallel for schedule(static) reduction(max : w) firstprivate(f) if (lv.n_active > tree::kParallelMin)
       for (Index g = 0; g < groups; ++g) {
         const Index first = base + g * C;
@@ -211,6 +224,7 @@ class EllipticOperator {
           for (int b = 0; b < C; ++b)
             value[b] = f(first + b, plain(first + b, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); }));
           w = std::max(w, max_of<C>(value));
+          restrict_group(g, first);
           continue;
         }
 #pragma GCC unroll 8
@@ -226,6 +240,7 @@ class EllipticOperator {
         // A pairwise maximum: one running max per cell was a chain of dependent
         // instructions as long as the sweep, the residual's critical path.
         w = std::max(w, max_of<C>(value));
+        restrict_group(g, first);
       }
     }
     worst = w;

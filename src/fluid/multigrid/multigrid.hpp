@@ -94,13 +94,15 @@ void remove_mean(const tree::Tree<D>& t, std::span<double> r) {
 }  // namespace detail
 
 // One cycle: da (on the leaves) approximately solves L(da) = res with homogeneous
-// boundary conditions. res is overwritten on the parents (restriction). A non-empty
+// boundary conditions. res on the parents must hold the restriction of its leaf values
+// when `restricted` (Op::residual leaves it so), else it is restricted here. A non-empty
 // `corrected` gets += da on the leaves, each level as soon as its da is final.
 template <class Op>
 void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span<double> scratch,
-            const MultigridOptions& opt, std::span<double> corrected = {}) {
+            const MultigridOptions& opt, std::span<double> corrected = {}, bool restricted = false) {
   const auto& t = op.tree();
-  for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
+  if (!restricted)
+    for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
   for (int l = 0; l <= t.depth(); ++l) {
     if (l == 0) {
       const auto& lv = t.level(0);
@@ -124,6 +126,8 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   const bool singular = op.singular();
   if (!opt.warm_start) t.for_each_leaf([&](tree::Index c) { a[c] = 0.0; });
 
+  // The residual comes restricted, unless the mean is then removed from its leaves.
+  const bool restricted = !singular;
   auto compute_residual = [&] {
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
     t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
@@ -147,11 +151,11 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   double pq_old = 0.0;
   while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance)) {
     if (!opt.krylov) {
-      vcycle(op, res, da, scratch, opt, a);  // a += da
+      vcycle(op, res, da, scratch, opt, a, restricted);  // a += da
     } else {
       // z = B r (res is restricted in place: keep the leaf residual for the step).
       t.for_each_leaf([&](tree::Index c) { saved[c] = res[c]; });
-      vcycle(op, res, da, scratch, opt);
+      vcycle(op, res, da, scratch, opt, {}, restricted);
       t.for_each_leaf([&](tree::Index c) { res[c] = saved[c]; });
       if (singular) detail::remove_mean<D>(t, da);
       double beta = 0.0;
