@@ -34,6 +34,12 @@ namespace capsflow::fluid {
 // cells 199 -> 134 us).
 inline constexpr Index kRelaxParallelMin = 32768;
 
+// Sweeps over sibling groups request, 16 groups ahead, the groups across the high side
+// of each direction: in Morton order those are the neighbours not touched recently (the
+// low ones were), and on a large level they come from memory. Measured (medians of
+// interleaved runs, 1 thread): 128^3 relaxation -12%, residual -11%; 64^3 -9%, 0%.
+inline constexpr Index kPrefetchGroups = 16;
+
 template <int D, class Alpha = ConstantFaces, class Lambda = ZeroCells>
 class EllipticOperator {
  public:
@@ -172,6 +178,12 @@ class EllipticOperator {
     return sum * inv_h2 + lambda_term(c, ac);
   }
 
+  static void prefetch_high_neighbors(const tree::Level<D>& lv, Index group, const double* v) {
+    const Index* gf = lv.group_face_row(group);
+#pragma GCC unroll 3
+    for (int k = 1; k < F; k += 2) __builtin_prefetch(v + gf[k]);
+  }
+
   // Whether the 2^D cells of a group are all leaves without a finer neighbour.
   static bool all_plain_leaves(const std::uint8_t* leaf) {
     bool all = true;
@@ -217,6 +229,7 @@ class EllipticOperator {
       for (Index g = 0; g < groups; ++g) {
         const Index first = base + g * C;
         const Index* gf = lv.group_face_row(g);
+        if (g + kPrefetchGroups < groups) prefetch_high_neighbors(lv, g + kPrefetchGroups, a.data());
         const std::uint8_t* leaf = lv.leaf.data() + (first - base);
         double value[C];
         if (all_plain_leaves(leaf)) {  // the common case, without a branch per cell
@@ -313,6 +326,7 @@ class EllipticOperator {
     for (Index g = 0; g < groups; ++g) {
       const Index first = base + g * C;
       const Index* gf = lv.group_face_row(g);
+      if (g + kPrefetchGroups < groups) prefetch_high_neighbors(lv, g + kPrefetchGroups, da.data());
 #pragma GCC unroll 8
       for (int j = 0; j < C / 2; ++j) {
         const int b = kOfColour[j];
