@@ -114,14 +114,15 @@ class EllipticOperator {
              const MultigridOptions& opt, std::span<double> scratch, std::span<double> corrected = {}) const {
     const tree::Level<D>& lv = tree_.level(l);
     const Diagonal diag{tree_.cell_size(l) * tree_.cell_size(l), *this};
-    const bool correct = !corrected.empty();
+    // Level 0 (a few roots, not sibling groups) and a call without sweeps correct apart.
+    const bool fuse = !corrected.empty() && l > 0 && sweeps > 0;
     for (int s = 0; s < sweeps; ++s) {
       const bool last = s + 1 == sweeps;
       if (opt.smoother == Smoother::red_black) {
         // No ghost refill between the colours: a face ghost's source is the cell it
         // touches, so black cells never read the ghost of a red one.
         relax_colour<0>(lv, diag, da, res, {});
-        relax_colour<1>(lv, diag, da, res, correct && last ? corrected : std::span<double>{});
+        relax_colour<1>(lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
       } else {
         const Index n = lv.n_active, base = lv.base;
         const double w = opt.jacobi_weight;
@@ -130,12 +131,12 @@ class EllipticOperator {
 #pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
         for (Index i = 0; i < n; ++i) {
           da[base + i] = scratch[base + i];
-          if (correct && last && lv.leaf[i]) corrected[base + i] += da[base + i];
+          if (fuse && last && lv.leaf[i]) corrected[base + i] += da[base + i];
         }
       }
       tree_.fill_ghosts(l, da, correction_bc_);
     }
-    if (correct && sweeps == 0)
+    if (!corrected.empty() && !fuse)
       for (Index i = 0; i < lv.n_active; ++i)
         if (lv.leaf[i]) corrected[lv.base + i] += da[lv.base + i];
   }
@@ -145,9 +146,9 @@ class EllipticOperator {
 
   // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
   // (the same on every cell of a level): a multiplication per update instead of a
-  // division, which was the critical path of a sweep.
-  // The constants are copied in (alpha too) and the sweeps take a local copy: a store to
-  // da could otherwise alias them, and the compiler reloaded them after every update.
+  // division, which was the critical path of a sweep. The constants are copied in (alpha
+  // too) and the sweeps take a local copy: a store to da could otherwise alias them, and
+  // the compiler reloaded them after every update.
   struct Diagonal {
     double h2 = 0.0, inverse = 0.0, alpha = 0.0;
     Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
@@ -290,7 +291,7 @@ class EllipticOperator {
   // Gauss-Seidel on one colour. Active cells of levels >= 1 come in sibling groups of 2^D
   // in child order, and the parity of i+j+k is the parity of the child number's bits; the
   // neighbours come from the group's row (tree::group_neighbor), folded to constants.
-  // A non-empty `corrected` gets += da on the leaves after the update (the last colour).
+  // A non-empty `corrected` (levels >= 1) gets += da on the leaves after the update.
   template <int Colour>
   void relax_colour(const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
                     std::span<double> corrected) const {
@@ -298,9 +299,6 @@ class EllipticOperator {
     if (base == 0) {  // level 0: roots are not sibling groups
       for (Index i = 0; i < lv.n_active; ++i)
         if ((std::popcount(lv.keys[i] & (C - 1)) & 1) == Colour) da[i] = updated(lv, i, dg, da, res);
-      if (!corrected.empty())
-        for (Index i = 0; i < lv.n_active; ++i)
-          if (lv.leaf[i]) corrected[i] += da[i];
       return;
     }
     if (!corrected.empty()) {
