@@ -27,7 +27,7 @@ namespace capsflow::fluid {
 
 // Scratch arrays of a solve, kept across solves so a cycle allocates nothing.
 struct MultigridWorkspace {
-  std::vector<double> residual, correction, scratch, direction, operated, saved;
+  std::vector<double> residual, correction, scratch, direction, operated;
   void resize(std::size_t n, bool krylov) {
     residual.resize(n);
     correction.resize(n);
@@ -35,7 +35,6 @@ struct MultigridWorkspace {
     if (krylov) {
       direction.resize(n);
       operated.resize(n);
-      saved.resize(n);
     }
   }
 };
@@ -147,16 +146,14 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   stats.residuals.push_back(stats.initial_residual);
   double current = stats.initial_residual;
   // Krylov state: previous direction p, its image q = L0 p, and <p, q>.
-  std::span<double> p = ws.direction, q = ws.operated, saved = ws.saved;
+  std::span<double> p = ws.direction, q = ws.operated;
   double pq_old = 0.0;
   while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance)) {
     if (!opt.krylov) {
       vcycle(op, res, da, scratch, opt, a, restricted);  // a += da
     } else {
-      // z = B r (res is restricted in place: keep the leaf residual for the step).
-      t.for_each_leaf([&](tree::Index c) { saved[c] = res[c]; });
+      // z = B r (a cycle writes res on the parents only: the leaves stay for the step).
       vcycle(op, res, da, scratch, opt, {}, restricted);
-      t.for_each_leaf([&](tree::Index c) { res[c] = saved[c]; });
       if (singular) detail::remove_mean<D>(t, da);
       double beta = 0.0;
       if (stats.cycles > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
