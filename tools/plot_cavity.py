@@ -47,7 +47,7 @@ def main():
     parser.add_argument("run_dir")
     parser.add_argument("--re", type=int, default=100)
     here = os.path.dirname(os.path.abspath(__file__))
-    parser.add_argument("--reference", default=os.path.join(here, "..", "..", "shared", "reference", "data"))
+    parser.add_argument("--reference", default=os.path.join(here, "..", "tests", "data"))
     args = parser.parse_args()
     cells = os.path.join(args.run_dir, "cells_final.csv")
     if not os.path.exists(cells):
