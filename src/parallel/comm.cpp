@@ -1,0 +1,51 @@
+#include "parallel/comm.hpp"
+
+#include <cstdlib>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace capsflow::parallel {
+
+bool launched_by_mpi() {
+  // Open MPI's mpirun, PMIx-based launchers (Slurm's srun, prrte) and MPICH's Hydra each set
+  // one of these in every rank's environment.
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_SIZE", "PMI_RANK"})
+    if (std::getenv(name) != nullptr) return true;
+  return false;
+}
+
+Comm Comm::world() {
+  int initialized = 0, finalized = 0;
+  MPI_Initialized(&initialized);
+  MPI_Finalized(&finalized);
+  if (!initialized || finalized) return self();
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  return {MPI_COMM_WORLD, rank, size};
+}
+
+void Comm::barrier() const {
+  if (distributed()) MPI_Barrier(handle_);
+}
+
+MpiSession::MpiSession(int& argc, char**& argv) {
+  if (!launched_by_mpi()) return;
+  int provided = 0;
+  if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS)
+    throw std::runtime_error("MPI_Init_thread failed");
+  if (provided < MPI_THREAD_FUNNELED) {
+    MPI_Finalize();
+    throw std::runtime_error(fmt::format("MPI provides thread level {}, capsflow needs MPI_THREAD_FUNNELED", provided));
+  }
+  // Errors are values here: a failed call returns its code to the caller, which throws.
+  MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
+  active_ = true;
+}
+
+MpiSession::~MpiSession() {
+  if (active_) MPI_Finalize();
+}
+
+}  // namespace capsflow::parallel
