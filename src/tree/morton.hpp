@@ -8,8 +8,14 @@
 //   parent key = key >> D
 // so sorting by key puts siblings next to each other and children in their parent's order.
 // Keys are 64-bit: 21 bits per coordinate in 3D, 32 in 2D.
+//
+// The primitives assert (checked builds, common/assert.hpp) what p4est's do: their input is
+// a valid key or coordinate and their output one too; a coordinate or child number out of
+// range would otherwise be truncated silently into another cell's key.
 #include <array>
 #include <cstdint>
+
+#include "common/assert.hpp"
 
 namespace capsflow::tree {
 
@@ -68,8 +74,26 @@ constexpr std::uint64_t gather_bits(std::uint64_t x) {
 template <int D>
 using Coords = std::array<std::int32_t, D>;
 
+// Whether a key's coordinates fit their bits: every key fits in 2D; in 3D the top bit is
+// never set.
+template <int D>
+constexpr bool key_in_range(Key k) {
+  if constexpr (D * kKeyBitsPerDim<D> == 64) return true;
+  else return (k >> (D * kKeyBitsPerDim<D>)) == 0;
+}
+
+template <int D>
+constexpr bool coords_in_range(const Coords<D>& c) {
+  for (int d = 0; d < D; ++d)
+    if (c[d] < 0 || c[d] >= (std::int64_t{1} << kKeyBitsPerDim<D>)) return false;
+  return true;
+}
+
+// Coordinates must be non-negative and fit kKeyBitsPerDim bits (ghosts outside the brick
+// have no keys).
 template <int D>
 constexpr Key morton_encode(const Coords<D>& c) {
+  CAPSFLOW_ASSERT(coords_in_range<D>(c), "morton_encode: a coordinate is negative or wider than a key's bits");
   Key k = 0;
   for (int d = 0; d < D; ++d) k |= detail::spread_bits<D>(static_cast<std::uint32_t>(c[d])) << d;
   return k;
@@ -77,19 +101,28 @@ constexpr Key morton_encode(const Coords<D>& c) {
 
 template <int D>
 constexpr Coords<D> morton_decode(Key k) {
+  CAPSFLOW_ASSERT(key_in_range<D>(k), "morton_decode: key has bits above the last coordinate bit");
   Coords<D> c{};
   for (int d = 0; d < D; ++d) c[d] = static_cast<std::int32_t>(detail::gather_bits<D>(k >> d));
   return c;
 }
 
 template <int D>
-constexpr Key child_key(Key parent, int child) {
-  return (parent << D) | static_cast<Key>(child);
+constexpr Key parent_key(Key k) {
+  CAPSFLOW_ASSERT(key_in_range<D>(k), "parent_key: key out of range");
+  return k >> D;
 }
 
+// The parent must have room for one more level (its top D bits clear), or the shift would
+// drop them: the child would belong to another root.
 template <int D>
-constexpr Key parent_key(Key k) {
-  return k >> D;
+constexpr Key child_key(Key parent, int child) {
+  CAPSFLOW_ASSERT(child >= 0 && child < (1 << D), "child_key: child number outside [0, 2^D)");
+  CAPSFLOW_ASSERT(parent >> (D * kKeyBitsPerDim<D> - D) == 0,
+                  "child_key: the parent is at the deepest level a key can hold");
+  const Key k = (parent << D) | static_cast<Key>(child);
+  CAPSFLOW_ASSERT(key_in_range<D>(k) && parent_key<D>(k) == parent, "child_key: the child key is not valid");
+  return k;
 }
 
 // Which child of its parent a cell is (the low D bits of its key).

@@ -34,6 +34,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/assert.hpp"
 #include "tree/boundary.hpp"
 #include "tree/geometry.hpp"
 #include "tree/morton.hpp"
@@ -129,14 +130,27 @@ struct Level {
   static std::size_t row_of(Index local) {
     return static_cast<std::size_t>(local & ~Index{kChildren<D> - 1}) | kRowInGroup<D>[local & (kChildren<D> - 1)];
   }
-  // Neighbour `slot` (see stencil.hpp) of the active cell c of this level.
+  // Neighbour `slot` (see stencil.hpp) of the active cell c of this level. c must be an
+  // active cell of this level: a global index of another level (or a halo cell) would
+  // read some other cell's row without any memory error to show it.
   Index neighbor(Index c, int slot) const {
+    CAPSFLOW_ASSERT(c >= active_begin() && c < active_end(), "Level::neighbor: not an active cell of this level");
+    CAPSFLOW_ASSERT(slot >= 0 && slot < kStencil<D>, "Level::neighbor: slot outside [0, 3^D - 1)");
     const std::size_t r = row_of(c - base);
     return slot < kFaces<D> ? face[r * kFaces<D> + slot] : diag[r * kDiagonals<D> + slot - kFaces<D>];
   }
-  const Index* face_row(Index c) const { return face.data() + row_of(c - base) * kFaces<D>; }
-  const Index* group_face_row(Index group) const { return group_face.data() + static_cast<std::size_t>(group) * kFaces<D>; }
-  bool is_leaf(Index c) const { return leaf[c - base] != 0; }
+  const Index* face_row(Index c) const {
+    CAPSFLOW_ASSERT(c >= active_begin() && c < active_end(), "Level::face_row: not an active cell of this level");
+    return face.data() + row_of(c - base) * kFaces<D>;
+  }
+  const Index* group_face_row(Index group) const {
+    CAPSFLOW_ASSERT(group >= 0 && group < n_active / kChildren<D>, "Level::group_face_row: no such sibling group");
+    return group_face.data() + static_cast<std::size_t>(group) * kFaces<D>;
+  }
+  bool is_leaf(Index c) const {
+    CAPSFLOW_ASSERT(c >= active_begin() && c < active_end(), "Level::is_leaf: not an active cell of this level");
+    return leaf[c - base] != 0;
+  }
   static constexpr std::uint8_t kLeaf = 1, kLeafNextToFiner = 2;
 };
 
@@ -172,18 +186,26 @@ class Tree {
   int depth() const { return depth_; }  // deepest level holding cells
   Index num_cells() const { return num_cells_; }
   Index num_leaves() const { return static_cast<Index>(leaves_.size()); }
-  const Level<D>& level(int l) const { return levels_[l]; }
+  const Level<D>& level(int l) const {
+    CAPSFLOW_ASSERT(l >= 0 && l <= options_.max_level, "Tree::level: level outside [0, max_level]");
+    return levels_[l];
+  }
   std::span<const Index> leaves() const { return leaves_; }
 
   // --- cells
   int level_of(Index c) const;
-  double cell_size(int l) const { return cell_size_[l]; }
+  double cell_size(int l) const {
+    CAPSFLOW_ASSERT(l >= 0 && l <= options_.max_level, "Tree::cell_size: level outside [0, max_level]");
+    return cell_size_[l];
+  }
   Coords<D> coords(Index c) const;  // integer coordinates on the uniform grid of its level
   Point<D> center(Index c) const;
   Box<D> box(Index c) const;
   Point<D> center_at(int l, const Coords<D>& ijk) const;
 
   // --- point location
+  // Whether cell c's box holds x (to a few ulps of its faces).
+  bool contains(Index c, const Point<D>& x) const;
   // The leaf containing x; throws std::out_of_range naming the point if x is outside.
   Index locate(const Point<D>& x) const;
   // The active or halo cell of level l at integer coordinates ijk (wrapped across periodic

@@ -13,7 +13,6 @@
 // A ghost's source (the cell it is filled from) is found in the same block.
 #include <algorithm>
 #include <atomic>
-#include <cassert>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -22,6 +21,7 @@
 #include <fmt/format.h>
 
 #include "tree/tree.hpp"
+#include "tree/tree_checks.hpp"
 
 namespace capsflow::tree {
 
@@ -242,7 +242,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
     const Index c = cur_base + i;
     for (int s = 0; s < kStencil<D>; ++s) {
       const Index n = cur.neighbor(c, s) - cur_base;
-      assert(n < na || n >= na + cur.n_halo);  // 2:1 balance: never a halo cell
+      CAPSFLOW_ASSERT(n < na || n >= na + cur.n_halo, "tree rebuild: a parent has a halo neighbour (2:1 balance broken)");
       if (n >= na || cur.leaf[n])
         std::atomic_ref<std::uint8_t>(cur.mark[n]).store(1, std::memory_order_relaxed);
     }
@@ -324,7 +324,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
       const Index n = s < 0 ? parent : cur.neighbor(parent, s);
       touches_ghost |= n >= cur_ghost_begin;
       firsts[code] = cur.first_child[n - cur_base];
-      assert(firsts[code] != kNone);
+      CAPSFLOW_ASSERT(firsts[code] != kNone, "tree rebuild: a neighbour of a parent has no children to border its own");
     }
     Index block[BlockTables<D>::kBlock];
     for (int q = 0; q < BlockTables<D>::kBlock; ++q)
@@ -397,6 +397,9 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
   num_cells_ = cells;
   collect_leaves();
   collect_halo_read();
+  // Checked builds: the whole structure after every change (full passes; Release skips).
+  CAPSFLOW_ASSERT(topology_violation(*this).empty(), topology_violation(*this));
+  CAPSFLOW_ASSERT(balance_violation(*this).empty(), balance_violation(*this));
 }
 
 template <int D>

@@ -58,6 +58,7 @@ FieldId Tree<D>::add_field(FieldSpec<D> spec) {
 
 template <int D>
 void Tree<D>::restrict_level(int l, std::span<double> v) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::restrict_level: the field does not have num_cells entries");
   constexpr int C = kChildren<D>;
   const Level<D>& lv = levels_[l];
   const Index b = lv.active_begin(), e = lv.active_end();
@@ -73,6 +74,7 @@ void Tree<D>::restrict_level(int l, std::span<double> v) const {
 
 template <int D>
 void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_halo: the field does not have num_cells entries");
   constexpr int C = kChildren<D>;
   if (l <= 0 || l > depth_) return;
   const Level<D>& lv = levels_[l];
@@ -101,6 +103,7 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells wh
 
 template <int D>
 void Tree<D>::prolong_level(int l, std::span<double> v, Prolongation p) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::prolong_level: the field does not have num_cells entries");
   constexpr int C = kChildren<D>;
   if (l <= 0 || l > depth_) return;
   const Level<D>& coarse = levels_[l - 1];
@@ -115,6 +118,7 @@ void Tree<D>::prolong_level(int l, std::span<double> v, Prolongation p) const {
 
 template <int D>
 void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_ghosts: the field does not have num_cells entries");
   const Level<D>& lv = levels_[l];
   const double h = cell_size_[l];
   const Index g0 = lv.ghost_begin();
@@ -159,6 +163,7 @@ void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D
 
 template <int D>
 void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync: the field does not have num_cells entries");
   if (p == Prolongation::none) p = Prolongation::linear;
   for (int l = depth_ - 1; l >= 0; --l) restrict_level(l, v);
   for (int l = 0; l <= depth_; ++l) {
@@ -169,6 +174,7 @@ void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolong
 
 template <int D>
 void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync_leaf_neighbors: the field does not have num_cells entries");
   // A halo cell of level l is prolonged from level l - 1, whose parents average the
   // levels below: restrict from the deepest level up to the coarsest one a halo reads.
   int coarsest_read = depth_;

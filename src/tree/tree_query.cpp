@@ -68,7 +68,22 @@ Index Tree<D>::find(int l, Coords<D> ijk) const {
     for (int d = 0; d < D; ++d) child |= ((ijk[d] >> (l - k - 1)) & 1) << d;
     c = fc + child;
   }
+  CAPSFLOW_ASSERT(c < levels_[l].halo_end() && level_of(c) == l && coords(c) == ijk,
+                  fmt::format("tree: find({}, ({})) descended to cell {}, which is not that cell", l,
+                              fmt::join(ijk, ", "), c));
   return c;
+}
+
+template <int D>
+bool Tree<D>::contains(Index c, const Point<D>& x) const {
+  // Rounding of (x - origin) / h can put a point within a few ulps of a face in the
+  // cell on either side: allow that much.
+  const Box<D> b = box(c);
+  for (int d = 0; d < D; ++d) {
+    const double slack = 1e-12 * (std::abs(x[d]) + options_.roots[d] * options_.root_size);
+    if (!(x[d] >= b.lo[d] - slack && x[d] <= b.hi[d] + slack)) return false;
+  }
+  return true;
 }
 
 template <int D>
@@ -91,7 +106,11 @@ Index Tree<D>::locate(const Point<D>& x) const {
   Index c = root_index_[r];
   for (int k = 0;; ++k) {
     const Level<D>& lv = levels_[k];
-    if (lv.leaf[c - lv.base]) return c;
+    if (lv.leaf[c - lv.base]) {
+      CAPSFLOW_ASSERT(contains(c, x), fmt::format("tree: locate({}) returned leaf {}, which does not contain it",
+                                                  fmt::join(x, ", "), c));
+      return c;
+    }
     int child = 0;
     for (int d = 0; d < D; ++d) child |= ((ijk[d] >> (top - k - 1)) & 1) << d;
     c = lv.first_child[c - lv.base] + child;
@@ -122,6 +141,7 @@ template Point<2> Tree<2>::center_at(int, const Coords<2>&) const;
 template Point<2> Tree<2>::center(Index) const;
 template Box<2> Tree<2>::box(Index) const;
 template Index Tree<2>::find(int, Coords<2>) const;
+template bool Tree<2>::contains(Index, const Point<2>&) const;
 template Index Tree<2>::locate(const Point<2>&) const;
 template void Tree<2>::cells_around(const Point<2>&, int, int, std::vector<Index>&) const;
 template int Tree<3>::level_of(Index) const;
@@ -130,6 +150,7 @@ template Point<3> Tree<3>::center_at(int, const Coords<3>&) const;
 template Point<3> Tree<3>::center(Index) const;
 template Box<3> Tree<3>::box(Index) const;
 template Index Tree<3>::find(int, Coords<3>) const;
+template bool Tree<3>::contains(Index, const Point<3>&) const;
 template Index Tree<3>::locate(const Point<3>&) const;
 template void Tree<3>::cells_around(const Point<3>&, int, int, std::vector<Index>&) const;
 

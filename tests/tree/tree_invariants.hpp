@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "tree/tree.hpp"
+#include "tree/tree_checks.hpp"
 
 namespace capsflow::tree::testing {
 
@@ -44,6 +45,10 @@ template <int D>
 void check_invariants(const Tree<D>& t) {
   const auto& opt = t.options();
   const int top = t.depth();
+  // 0. The checks the checked build asserts after every change (tree_checks.hpp) agree,
+  //    in every build type.
+  EXPECT_EQ(topology_violation(t), "");
+  EXPECT_EQ(balance_violation(t), "");
   // 1. Leaves tile the domain: their max-level Morton intervals are disjoint and their
   //    volumes add up to the brick's.
   double volume = 0.0;

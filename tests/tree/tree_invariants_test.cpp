@@ -1,7 +1,10 @@
-// Random refinement and coarsening sequences keep every invariant of the forest.
+// Random refinement and coarsening sequences keep every invariant of the forest, and a
+// change with nothing to do is the identity.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <random>
+#include <vector>
 
 #include "tree_invariants.hpp"
 
@@ -10,11 +13,52 @@ namespace {
 
 using testing::check_invariants;
 
+// What an idle adapt must leave as it was: every level's cells (keys, counts) and every
+// field value on every slot.
+template <int D>
+struct Snapshot {
+  std::vector<std::vector<Key>> keys;
+  std::vector<std::array<Index, 3>> counts;  // active, halo, ghost per level
+  std::vector<std::vector<double>> values;
+
+  explicit Snapshot(Tree<D>& t) {
+    for (int l = 0; l <= t.depth(); ++l) {
+      keys.push_back(t.level(l).keys);
+      counts.push_back({t.level(l).n_active, t.level(l).n_halo, t.level(l).n_ghost});
+    }
+    for (FieldId f = 0; f < t.num_fields(); ++f) {
+      t.sync(f);  // parents, halos and ghosts as an adapt leaves them
+      values.emplace_back(t.values(f).begin(), t.values(f).end());
+    }
+  }
+  bool operator==(const Snapshot&) const = default;
+};
+
+// p4est's test_balance2: balancing a balanced forest changes nothing. Here balance is part
+// of every change, so "balance again" is a change with nothing requested: all-zero flags,
+// and an adapt with no criterion, no forced level and no coarsening. Both must keep the
+// cells and the field values bit for bit.
+template <int D>
+void expect_idle_changes_nothing(Tree<D>& t) {
+  const Snapshot<D> before(t);
+  const std::vector<std::int8_t> zeros(t.num_cells(), 0);
+  AdaptCounts counts = t.apply_flags(zeros);
+  EXPECT_EQ(counts.refined, 0);
+  EXPECT_EQ(counts.coarsened, 0);
+  EXPECT_TRUE(Snapshot<D>(t) == before) << "apply_flags with no flags changed the forest or a field";
+  counts = t.adapt({.allow_coarsening = false});
+  EXPECT_EQ(counts.refined, 0);
+  EXPECT_EQ(counts.coarsened, 0);
+  EXPECT_TRUE(Snapshot<D>(t) == before) << "adapt with nothing to do changed the forest or a field";
+}
+
 template <int D>
 void random_sequence(TreeOptions<D> opt, unsigned seed, int steps, double p_refine, double p_coarsen) {
   Tree<D> t(opt);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
+  // A field with random values, carried through every change (linear prolongation).
+  const FieldId f = t.add_field({.name = "random"});
   check_invariants(t);
   int max_depth = 0;
   for (int step = 0; step < steps; ++step) {
@@ -29,6 +73,8 @@ void random_sequence(TreeOptions<D> opt, unsigned seed, int steps, double p_refi
     SCOPED_TRACE("step " + std::to_string(step));
     check_invariants(t);
     if (::testing::Test::HasFatalFailure()) return;
+    for (const Index c : t.leaves()) t.values(f)[c] = u(rng);
+    expect_idle_changes_nothing(t);
   }
   EXPECT_GE(max_depth, 3) << "the sequence should reach deep levels to test anything";
 }
