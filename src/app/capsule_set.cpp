@@ -150,7 +150,8 @@ std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
   return extras;
 }
 
-void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras) {
+void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras, std::int64_t step) {
+  coupling_->set_steps(step);
   for (int i = 0; i < coupling_->num_capsules(); ++i) {
     const std::string name = fmt::format("capsule_{}_positions", i);
     auto& x = coupling_->capsule(i).x;
