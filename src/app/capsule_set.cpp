@@ -20,7 +20,35 @@ ibm::KernelKind kernel(io::KernelType k) {
     case io::KernelType::hat: return ibm::KernelKind::hat;
     case io::KernelType::peskin4: return ibm::KernelKind::peskin4;
   }
-  return ibm::KernelKind::cosine;
+  throw std::logic_error("capsule: unhandled kernel type");  // unreachable: the switch is exhaustive
+}
+
+// Switches without default (here and below): -Wswitch flags a case-file value left out,
+// where a ternary would silently map it to another law or order.
+membrane::LawKind law_kind(io::MembraneLaw law) {
+  switch (law) {
+    case io::MembraneLaw::skalak: return membrane::LawKind::skalak;
+    case io::MembraneLaw::neo_hookean: return membrane::LawKind::neo_hookean;
+  }
+  throw std::logic_error("capsule: unhandled membrane law");
+}
+
+// element_order is an integer in the case file; validation allows 1 and 2 only.
+membrane::Order element_order(int order, int index) {
+  switch (order) {
+    case 1: return membrane::Order::p1;
+    case 2: return membrane::Order::p2;
+    default: break;  // an integer, not an enum: every other value is refused
+  }
+  throw std::invalid_argument(fmt::format("capsule[{}].element_order = {}: must be 1 (P1) or 2 (P2)", index, order));
+}
+
+io::SurfaceOrder surface_order(membrane::Order order) {
+  switch (order) {
+    case membrane::Order::p1: return io::SurfaceOrder::linear;
+    case membrane::Order::p2: return io::SurfaceOrder::quadratic;
+  }
+  throw std::logic_error("capsule: unhandled element order");
 }
 
 int icosphere_level(int nodes, int index) {
@@ -48,10 +76,10 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
     const int index = static_cast<int>(i);
     const Eigen::Vector3d centre(k.centre[0], k.centre[1], k.centre[2]);
     membrane::Mesh mesh = membrane::make_icosphere(
-        {.order = k.element_order == 2 ? membrane::Order::p2 : membrane::Order::p1,
+        {.order = element_order(k.element_order, index),
          .level = icosphere_level(k.nodes, index), .radius = k.radius, .centre = centre});
     const membrane::LawParameters law{
-        .kind = k.law == io::MembraneLaw::skalak ? membrane::LawKind::skalak : membrane::LawKind::neo_hookean,
+        .kind = law_kind(k.law),
         .gs = ibm::shear_modulus(k.Ca, c.fluid.Re), .c = k.C};
     Eigen::Matrix3Xd x = mesh.nodes;
     switch (k.shape) {
@@ -94,8 +122,7 @@ void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t,
     const std::string file = numbered("membrane", step, i);
     io::write_surface_vtu(dir / file, {.positions = {c.x.data(), std::size_t(c.x.size())},
                                        .elements = mesh.elements,
-                                       .order = mesh.order == membrane::Order::p2 ? io::SurfaceOrder::quadratic
-                                                                                   : io::SurfaceOrder::linear,
+                                       .order = surface_order(mesh.order),
                                        .point_data = points, .cell_data = cells});
     series.add(t, dir / file, 1 + i);
   }
@@ -123,7 +150,8 @@ std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
   return extras;
 }
 
-void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras) {
+void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras, std::int64_t step) {
+  coupling_->set_steps(step);
   for (int i = 0; i < coupling_->num_capsules(); ++i) {
     const std::string name = fmt::format("capsule_{}_positions", i);
     auto& x = coupling_->capsule(i).x;

@@ -30,7 +30,8 @@ class CapsuleSet {
   void snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries& series) const;
   void write_final(const std::filesystem::path& dir) const;  // membrane_final.csv
   std::vector<io::ExtraArray> checkpoint_extras() const;     // node positions
-  void restore(const std::vector<io::ExtraArray>& extras);
+  // From a checkpoint written after `step` steps: the positions and the adaptation state.
+  void restore(const std::vector<io::ExtraArray>& extras, std::int64_t step);
 
  private:
   std::unique_ptr<ibm::CapsuleCoupling> coupling_;

@@ -95,7 +95,7 @@ class FlowRun {
       const io::RestoredState state = io::read_checkpoint<D>(*request_.restart, tree_);
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
-      if (capsules_) capsules_->restore(state.extras);
+      if (capsules_) capsules_->restore(state.extras, step);
     } else if (c.adapt.enabled) {
       const auto walls = wall_refinement<D>(c, tree_.options());
       const int base = c.adapt.min_level;

@@ -111,6 +111,9 @@ class CapsuleCoupling {
   [[nodiscard]] const Capsule& capsule(int i) const { return capsules_.at(i); }
   [[nodiscard]] Capsule& capsule(int i) { return capsules_.at(i); }
   [[nodiscard]] std::int64_t steps() const { return steps_; }
+  // The steps taken so far, tested against CouplingAdapt::interval: a restarted run sets it
+  // to its checkpoint's step, so that it adapts after the same steps as the uninterrupted one.
+  void set_steps(std::int64_t n) { steps_ = n; }
   // Steps since the last adaptation; a checkpoint keeps it (with each x_at_adapt) so that a
   // restarted run adapts when the uninterrupted one would.
   [[nodiscard]] std::int64_t steps_since_adapt() const { return since_adapt_; }

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <system_error>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -67,7 +69,11 @@ class Override {
         if (digits.empty() || !std::all_of(digits.begin(), digits.end(),
                                            [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
           fail(fmt::format("bad index in key \"{}\"", key));
-        seg.index = std::stoul(std::string(digits));
+        std::size_t index = 0;
+        const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
+        if (ec != std::errc() || end != digits.data() + digits.size())
+          fail(fmt::format("index {} in key \"{}\" is out of range", digits, key));
+        seg.index = index;
         part = part.substr(0, open);
       }
       if (!bare_word(part)) fail(fmt::format("bad key \"{}\"", key));

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ibm/kernels.hpp"
 #include "io/case_names.hpp"
 
 namespace capsflow::io {
@@ -44,10 +45,27 @@ class Checker {
   const CaseSource& source_;
 };
 
+// Lengths are in units of the channel half-width l: a brick of 1e9 l or a root of 1e-9 l is
+// a unit mistake, and beyond such magnitudes cell sizes and positions (root_size / 2^level,
+// origin + i h) lose their digits or overflow.
+constexpr double kMaxLength = 1e9;
+constexpr double kMinRootSize = 1e-9;
+
 void check_domain(const CaseConfig& c, const Checker& ck) {
   for (int d = 0; d < c.dimension; ++d) ck.at_least(fmt::format("domain.roots[{}]", d), c.domain.roots[d], 1);
   ck.positive("domain.root_size", c.domain.root_size);
-  for (int d = 0; d < c.dimension; ++d) ck.finite(fmt::format("domain.origin[{}]", d), c.domain.origin[d]);
+  if (c.domain.root_size > kMaxLength || c.domain.root_size < kMinRootSize)
+    ck.fail("domain.root_size", toml_number(c.domain.root_size),
+            fmt::format("must be in [{:g}, {:g}]: lengths are in units of the channel half-width, and beyond "
+                        "that range the cell sizes and positions overflow or lose their digits",
+                        kMinRootSize, kMaxLength));
+  for (int d = 0; d < c.dimension; ++d) {
+    const std::string key = fmt::format("domain.origin[{}]", d);
+    ck.finite(key, c.domain.origin[d]);
+    if (std::abs(c.domain.origin[d]) > kMaxLength)
+      ck.fail(key, toml_number(c.domain.origin[d]),
+              fmt::format("|origin| must be <= {:g}: lengths are in units of the channel half-width", kMaxLength));
+  }
 }
 
 // Periodicity is a property of a direction: both sides periodic, and only when
@@ -130,7 +148,6 @@ void check_adapt(const CaseConfig& c, const Checker& ck) {
             fmt::format("must be 0 (off) or >= adapt.interval ({})", a.interval));
 }
 
-// The largest semi-axis of the initial shape: what must fit between the walls.
 // The capsule's initial half-extent along direction d (the ellipsoid's axes are the
 // coordinate axes, scaled by axes_factors).
 double semi_axis(const CapsuleConfig& cap, int d) {
@@ -140,6 +157,30 @@ double semi_axis(const CapsuleConfig& cap, int d) {
     case InitialShape::sphere: break;
   }
   return cap.radius;
+}
+
+// The radius of a sphere around the capsule's initial shape (its largest semi-axis).
+double bounding_radius(const CapsuleConfig& cap) {
+  return std::max({semi_axis(cap, 0), semi_axis(cap, 1), semi_axis(cap, 2)});
+}
+
+int kernel_support(KernelType k) {
+  switch (k) {
+    case KernelType::cosine: return ibm::support_of(ibm::KernelKind::cosine);
+    case KernelType::hat: return ibm::support_of(ibm::KernelKind::hat);
+    case KernelType::peskin4: return ibm::support_of(ibm::KernelKind::peskin4);
+  }
+  return 0;  // unreachable: the switch is exhaustive (-Wswitch)
+}
+
+// How far beyond a node its stencils reach (ibm/stencil.hpp): a kernel of support W uses the
+// max-level cells whose centres lie within W/2 cells of it, so the outermost cell's far edge
+// is (W - 1)/2 cells of size h away. A node closer than that to a non-periodic side would
+// need cells outside the domain at the first step.
+double kernel_reach(const CaseConfig& c, const CapsuleConfig& cap) {
+  const int w = std::max(kernel_support(cap.spread_kernel), kernel_support(cap.interp_kernel));
+  const double h = c.domain.root_size / static_cast<double>(std::int64_t{1} << c.adapt.max_level);
+  return 0.5 * (w - 1) * h;
 }
 
 void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
@@ -155,6 +196,9 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
   if (cap.element_order != 1 && cap.element_order != 2)
     ck.fail(key + ".element_order", fmt::format("{}", cap.element_order), "must be 1 (P1) or 2 (P2)");
   ck.positive(key + ".radius", cap.radius);
+  if (cap.radius > kMaxLength)
+    ck.fail(key + ".radius", toml_number(cap.radius),
+            fmt::format("must be <= {:g}: lengths are in units of the channel half-width", kMaxLength));
   for (int d = 0; d < 3; ++d) {
     ck.finite(fmt::format("{}.centre[{}]", key, d), cap.centre[d]);
     ck.positive(fmt::format("{}.axes_factors[{}]", key, d), cap.axes_factors[d]);
@@ -170,13 +214,59 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
                           "(its initial semi-axis) leaves [{}, {}]",
                           kAxisNames[d], semi, lo, hi));
   }
+  const double reach = kernel_reach(c, cap);
+  for (int d = 0; d < 3; ++d) {
+    if (c.domain.periodic[d]) continue;
+    const double semi = semi_axis(cap, d);
+    const double lo = c.domain.origin[d];
+    const double hi = lo + c.domain.roots[d] * c.domain.root_size;
+    const double gap = std::min(cap.centre[d] - semi - lo, hi - cap.centre[d] - semi);
+    if (gap < reach)
+      ck.fail(key + ".centre", vector_repr(cap.centre, 3),
+              fmt::format("the capsule is {:.4g} from a side along {}, within its kernels' reach ({:.4g}: "
+                          "(support - 1)/2 cells of the max level, {:.4g}); its stencils would leave the domain",
+                          gap, kAxisNames[d], reach,
+                          c.domain.root_size / static_cast<double>(std::int64_t{1} << c.adapt.max_level)));
+  }
 }
+
+// Capsules may not start inside one another: the spheres around their initial shapes must
+// be disjoint (a conservative test; the membranes never cross in the flow either).
+void check_capsule_overlaps(const CaseConfig& c, const Checker& ck) {
+  for (std::size_t j = 1; j < c.capsules.size(); ++j)
+    for (std::size_t i = 0; i < j; ++i) {
+      const CapsuleConfig& a = c.capsules[i];
+      const CapsuleConfig& b = c.capsules[j];
+      double dist2 = 0.0;
+      for (int d = 0; d < 3; ++d) dist2 += (a.centre[d] - b.centre[d]) * (a.centre[d] - b.centre[d]);
+      const double dist = std::sqrt(dist2), reach = bounding_radius(a) + bounding_radius(b);
+      if (dist < reach)
+        ck.fail(fmt::format("capsule[{}].centre", j), vector_repr(b.centre, 3),
+                fmt::format("overlaps capsule[{}]: the centres are {:.4g} apart, less than the sum of the "
+                            "capsules' largest initial semi-axes ({:.4g})",
+                            i, dist, reach));
+    }
+}
+
+// More steps than any run can take: the step is a typo or a unit error (5e-324 is a
+// denormal; t_end / dt would also overflow the step counter's useful range).
+constexpr double kMaxSteps = 1e9;
 
 void check_time(const CaseConfig& c, const Checker& ck) {
   ck.positive("time.dt", c.time.dt);
   ck.positive("time.t_end", c.time.t_end);
   ck.non_negative("time.cfl", c.time.cfl);
   ck.non_negative("time.dt_max", c.time.dt_max);
+  const auto steps = [&](const char* key, double dt) {
+    const double n = c.time.t_end / dt;
+    if (!(n <= kMaxSteps))
+      ck.fail(key, toml_number(dt),
+              fmt::format("time.t_end / {} = {:.3g} steps, more than {:.0e}: too small a step to be meant "
+                          "(a typo or a unit error?)",
+                          key, n, kMaxSteps));
+  };
+  steps("time.dt", c.time.dt);
+  if (c.time.dt_max > 0.0) steps("time.dt_max", c.time.dt_max);
 }
 
 void check_output(const CaseConfig& c, const Checker& ck) {
@@ -197,6 +287,7 @@ void validate_case(const CaseConfig& c, const CaseSource& source) {
   check_fluid(c, ck);
   check_adapt(c, ck);
   for (std::size_t i = 0; i < c.capsules.size(); ++i) check_capsule(c, i, ck);
+  check_capsule_overlaps(c, ck);
   check_time(c, ck);
   check_output(c, ck);
 }

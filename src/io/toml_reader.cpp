@@ -76,6 +76,17 @@ bool convert(const toml::node& n, int& out) {
   return false;
 }
 
+// For values that are integers but do not fit an int.
+constexpr std::string_view kIntRange = "out of range for a 32-bit integer";
+
+template <class T>
+constexpr std::string_view expected_plural() {
+  if constexpr (std::is_same_v<T, double>) return "numbers";
+  else if constexpr (std::is_same_v<T, int>) return "integers";
+  else if constexpr (std::is_same_v<T, bool>) return "booleans (true or false)";
+  else return "strings";
+}
+
 template <class T>
 constexpr std::string_view expected_name() {
   if constexpr (std::is_same_v<T, double>) return "a number";
@@ -135,7 +146,7 @@ bool TableReader::read_scalar(std::string_view key, T& out) {
   if (!n) return false;
   if (!convert(*n, out)) {
     if constexpr (std::is_same_v<T, int>)
-      if (n->is_integer()) source_.fail(key_path(key), toml_repr(*n), "out of range");
+      if (n->is_integer()) source_.fail(key_path(key), toml_repr(*n), kIntRange);
     wrong_type(key, *n, expected_name<T>());
   }
   return true;
@@ -151,16 +162,19 @@ bool TableReader::read_array(std::string_view key, std::array<T, N>& out, int n)
   const toml::node* nd = node(key);
   if (!nd) return false;
   const toml::array* a = nd->as_array();
-  if (!a) wrong_type(key, *nd, fmt::format("an array of {} {}", n, expected_name<T>()));
+  if (!a) wrong_type(key, *nd, fmt::format("an array of {} {}", n, expected_plural<T>()));
   if (static_cast<int>(a->size()) != n)
     source_.fail(key_path(key), toml_repr(*nd),
                  fmt::format("expected {} entries (one per direction), got {}", n, a->size()));
   std::array<T, N> values = out;
-  for (int i = 0; i < n; ++i)
-    if (!convert(*a->get(static_cast<std::size_t>(i)), values[i]))
-      source_.fail(key_path(key), toml_repr(*nd),
-                   fmt::format("entry {} is {}, expected {}", i,
-                               type_name(*a->get(static_cast<std::size_t>(i))), expected_name<T>()));
+  for (int i = 0; i < n; ++i) {
+    const toml::node& entry = *a->get(static_cast<std::size_t>(i));
+    if (convert(entry, values[i])) continue;
+    if constexpr (std::is_same_v<T, int>)
+      if (entry.is_integer()) source_.fail(key_path(key), toml_repr(*nd), fmt::format("entry {} is {}", i, kIntRange));
+    source_.fail(key_path(key), toml_repr(*nd),
+                 fmt::format("entry {} is {}, expected {}", i, type_name(entry), expected_name<T>()));
+  }
   out = values;
   return true;
 }

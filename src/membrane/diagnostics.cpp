@@ -11,6 +11,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace capsflow::membrane {
 
@@ -90,22 +91,32 @@ inline void curved_triangle_moments(const ElementNodes<6>& x, const P2MomentRule
   m[10] += 0.5 * (p.row(1).square() * p.row(2) * n.row(1)).sum();
 }
 
+// The sums are the same to the last bit on any number of threads (diagnostics.csv must not
+// depend on OMP_NUM_THREADS): each block of kBlock consecutive elements is summed in element
+// order by one thread, then the block sums in block order by one thread. An OpenMP
+// reduction would add the threads' partial sums, whose split depends on the thread count.
+constexpr std::int64_t kBlock = 64;
+
 template <int Nn>
 Moments integrate(const Mesh& mesh, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& origin) {
   const std::int64_t n_elements = mesh.element_count();
+  const std::int64_t n_blocks = (n_elements + kBlock - 1) / kBlock;
   const std::int32_t* conn = mesh.elements.data();
-  double sum[n_moments] = {};
-#pragma omp parallel for schedule(static) reduction(+ : sum[:n_moments])
-  for (std::int64_t e = 0; e < n_elements; ++e) {
-    auto xe = gather<Nn>(x, conn + e * Nn);
-    for (auto& p : xe) p -= origin;
+  std::vector<Moments> block_sums(static_cast<std::size_t>(n_blocks));
+#pragma omp parallel for schedule(static)
+  for (std::int64_t b = 0; b < n_blocks; ++b) {
     Moments m{};
-    if constexpr (Nn == 3) triangle_moments(xe, m);
-    else curved_triangle_moments(xe, p2_moment_rule(), m);
-    for (int k = 0; k < n_moments; ++k) sum[k] += m[static_cast<std::size_t>(k)];
+    for (std::int64_t e = b * kBlock; e < std::min(n_elements, (b + 1) * kBlock); ++e) {
+      auto xe = gather<Nn>(x, conn + e * Nn);
+      for (auto& p : xe) p -= origin;
+      if constexpr (Nn == 3) triangle_moments(xe, m);
+      else curved_triangle_moments(xe, p2_moment_rule(), m);
+    }
+    block_sums[static_cast<std::size_t>(b)] = m;
   }
-  Moments out;
-  for (int k = 0; k < n_moments; ++k) out[static_cast<std::size_t>(k)] = sum[k];
+  Moments out{};
+  for (const Moments& m : block_sums)
+    for (std::size_t k = 0; k < out.size(); ++k) out[k] += m[k];
   return out;
 }
 

@@ -91,7 +91,12 @@ inline void validate(const NeoHookean& law) { detail::require_positive_modulus("
 
 // The one place a runtime law choice becomes a type; validates the parameters.
 [[nodiscard]] inline AnyLaw make_law(const LawParameters& p) {
-  AnyLaw law = p.kind == LawKind::skalak ? AnyLaw{Skalak{p.gs, p.c}} : AnyLaw{NeoHookean{p.gs}};
+  // A switch without default: -Wswitch flags a new LawKind left out here.
+  AnyLaw law;
+  switch (p.kind) {
+    case LawKind::skalak: law = Skalak{p.gs, p.c}; break;
+    case LawKind::neo_hookean: law = NeoHookean{p.gs}; break;
+  }
   std::visit([](const auto& l) { validate(l); }, law);
   return law;
 }

@@ -97,6 +97,13 @@ centre = [0.0, 0.5, 0.0]
   expect_refused(capsule, "", "capsule");
 }
 
+// An array index that does not fit any integer: exit 2 naming the key (it was exit 3 and
+// the bare text "stoul").
+TEST(AppErrors, OverrideIndexOutOfRange) {
+  expect_refused(kCavity, "--set 'capsule[99999999999999999999999].radius=1'",
+                 "case.toml: --set capsule[99999999999999999999999].radius=1: index 99999999999999999999999 in key");
+}
+
 TEST(AppErrors, BadCommandLineAndCorruptCheckpoint) {
   const fs::path dir = scratch("cli");
   const fs::path file = write(dir, "case.toml", kCavity);

@@ -139,6 +139,31 @@ TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
 }
 
+// A checkpoint at a step that is not a multiple of adapt.interval (here 4, interval 3):
+// the full run adapts after steps 3, 6 and 9; the restart from step 4 must adapt after 6
+// and 9 too (not 3 steps after the restart), or the membrane ends elsewhere.
+TEST(AppCapsule, RestartBetweenAdaptationsRepeatsTheRunExactly) {
+  const fs::path dir = scratch("capsule_interval");
+  const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 --set capsule[0].nodes=642 "
+                           "--set time.t_end=0.04 --set output.vtu=false --set output.diagnostics_interval=1 "
+                           "--set output.checkpoint=true --set output.checkpoint_interval=4 "
+                           "--set adapt.interval=3 --set adapt.membrane_band=8 ";
+  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
+  ASSERT_EQ(full.size(), 11u);
+  fs::copy(dir / "full", dir / "part", fs::copy_options::recursive);
+  const auto again = capsflow(base + "--out " + (dir / "part").string() + " --restart " +
+                                  (dir / "part" / "checkpoint_000004.h5").string(), dir);
+  ASSERT_EQ(again.status, 0) << again.err;
+  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
+  ASSERT_EQ(resumed.size(), full.size());
+  for (std::size_t i = 1; i < full.size(); ++i)
+    for (std::size_t c = 0; c + 1 < full[i].size(); ++c) ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+  EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
+}
+
 // The command's --adapt switch on the quick seed case (dx = 1/16, 642 nodes, 50 steps to
 // t = 0.1): the adaptive run follows the uniform one in D12(t) while holding fewer cells.
 // Both runs keep the membrane band at the max level and the walls at their own level; they

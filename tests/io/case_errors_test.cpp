@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <vector>
 
 #include "io/case_config.hpp"
 
@@ -210,6 +211,70 @@ TEST(io_case_errors, FileNameIsTheOneGiven) {
     EXPECT_EQ(std::string(e.what()), file.string() + ": time.dt = 0.0: must be > 0");
   }
   std::filesystem::remove_all(dir);
+}
+
+// Two capsules may not start inside one another: the spheres around their initial shapes
+// (radius: the largest semi-axis) must be disjoint.
+TEST(io_case_errors, OverlappingCapsules) {
+  const std::string two = std::string(kBase) + "[[capsule]]\nradius = 0.3\ncentre = [0, 0, 0]\n" +
+                          "[[capsule]]\nradius = 0.3\ncentre = [0, 0, 0]\n";
+  EXPECT_THAT(error_of(two), HasSubstr("capsule[1].centre = [0.0, 0.0, 0.0]: overlaps capsule[0]: the centres are 0 apart"));
+  // An ellipsoid reaches farther than its radius along its long axis.
+  const std::string near = std::string(kBase) + "[[capsule]]\nradius = 0.3\ncentre = [-1, 0, 0]\n" +
+                           "[[capsule]]\nradius = 0.3\ncentre = [-0.3, 0, 0]\nshape = \"ellipsoid\"\n" +
+                           "axes_factors = [1.5, 0.5, 0.5]\n";
+  EXPECT_THAT(error_of(near), HasSubstr("capsule[1].centre = [-0.3, 0.0, 0.0]: overlaps capsule[0]"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(near, "centre = [-0.3, 0, 0]", "centre = [0.0, 0, 0]"), "c"));
+}
+
+// A node closer to a non-periodic side than its kernels reach, (support - 1)/2 max-level
+// cells (cosine: 1.5 cells of 2/64 = 0.047 at the default max_level 6), would need cells
+// outside the domain at the first step.
+TEST(io_case_errors, CapsuleWithinTheKernelsReachOfAWall) {
+  const std::string capsule = std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [0, 0.46, 0]\n";
+  const std::string e = error_of(capsule);
+  EXPECT_THAT(e, HasSubstr("capsule[0].centre = [0.0, 0.46, 0.0]: the capsule is 0.04 from a side along y, "
+                           "within its kernels' reach (0.04688"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45"), "c"));
+  // The hat kernel alone reaches half a cell.
+  EXPECT_NO_THROW((void)parse_case_text(capsule + "spread_kernel = \"hat\"\n", "c"));
+  // Along a periodic direction there is no side to reach.
+  EXPECT_NO_THROW((void)parse_case_text(std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [-3.5, 0, 0]\n", "c"));
+}
+
+// Magnitudes no run means: a step so small that t_end takes more than 1e9 of them (5e-324
+// is a denormal), lengths beyond 1e9 half-widths (1e308 overflows the brick's size).
+TEST(io_case_errors, AbsurdMagnitudes) {
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ndt = 5e-324\n"),
+              HasSubstr("time.dt = 5e-324: time.t_end / time.dt = inf steps, more than 1e+09"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ndt = 1e-10\nt_end = 1.0\n"),
+              HasSubstr("time.dt = 1e-10: time.t_end / time.dt = 1e+10 steps"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncfl = 0.5\ndt_max = 1e-12\n"), HasSubstr("time.dt_max = 1e-12: "));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "root_size = 2.0", "root_size = 1e308")),
+              HasSubstr("domain.root_size = 1e+308: must be in [1e-09, 1e+09]"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "origin = [-4, -1, -1]", "origin = [-4, -1e300, -1]")),
+              HasSubstr("domain.origin[1] = -1e+300: |origin| must be <= 1e+09"));
+}
+
+TEST(io_case_errors, IntegersOutOfRangeAndArrayTypes) {
+  EXPECT_THAT(error_of(replace(std::string(kBase), "roots = [4, 1, 1]", "roots = [4000000000, 1, 1]")),
+              HasSubstr("domain.roots = [4000000000, 1, 1]: entry 0 is out of range for a 32-bit integer"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmax_level = 4000000000\n"),
+              HasSubstr("adapt.max_level = 4000000000: out of range for a 32-bit integer"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "roots = [4, 1, 1]", "roots = 4")),
+              HasSubstr("domain.roots = 4: expected an array of 3 integers, got an integer"));
+  EXPECT_THAT(error_of(replace(std::string(kBase), "origin = [-4, -1, -1]", "origin = -4")),
+              HasSubstr("domain.origin = -4: expected an array of 3 numbers, got an integer"));
+}
+
+TEST(io_case_errors, OverrideIndexOutOfRange) {
+  const std::string text = std::string(kBase) + "[[capsule]]\nradius = 0.3\ncentre = [0, 0, 0]\n";
+  const std::vector<std::string> huge{"capsule[99999999999999999999999].radius=1"};
+  EXPECT_THAT(error_of(text, huge),
+              HasSubstr("--set capsule[99999999999999999999999].radius=1: index 99999999999999999999999 in key "
+                        "\"capsule[99999999999999999999999].radius\" is out of range"));
+  const std::vector<std::string> past{"capsule[3].radius=1"};
+  EXPECT_THAT(error_of(text, past), HasSubstr("capsule[3] does not exist (the case has 1)"));
 }
 
 }  // namespace

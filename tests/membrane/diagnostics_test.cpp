@@ -7,6 +7,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <cstdio>
@@ -189,6 +190,28 @@ TEST(membrane_diagnostics, MaxNodeDistance) {
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("configuration has 7 nodes, the mesh 642"));
+  }
+}
+
+// diagnostics.csv is the same on any number of threads: area, volume and the inertia
+// ellipsoid (hence D12) come out bit for bit equal on 1, 2 and 3 threads.
+TEST(Diagnostics, SameBitsOnAnyNumberOfThreads) {
+  for (const Order order : {Order::p1, Order::p2}) {
+    const Mesh mesh = make_icosphere({.order = order, .level = 4, .radius = a});
+    const Eigen::Matrix3Xd x = seed_ellipsoid(mesh.nodes, Eigen::Vector3d(0.1, -0.05, 0.02));
+    const int before = omp_get_max_threads();
+    std::vector<ShapeDiagnostics> d;
+    for (const int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      d.push_back(shape_diagnostics(mesh, x));
+    }
+    omp_set_num_threads(before);
+    for (std::size_t k = 1; k < d.size(); ++k) {
+      EXPECT_EQ(d[k].area, d[0].area) << k + 1 << " threads";
+      EXPECT_EQ(d[k].volume, d[0].volume) << k + 1 << " threads";
+      EXPECT_EQ(d[k].d12, d[0].d12) << k + 1 << " threads";
+      EXPECT_EQ(d[k].centroid, d[0].centroid) << k + 1 << " threads";
+    }
   }
 }
 
