@@ -97,7 +97,7 @@ void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t,
                                        .order = mesh.order == membrane::Order::p2 ? io::SurfaceOrder::quadratic
                                                                                    : io::SurfaceOrder::linear,
                                        .point_data = points, .cell_data = cells});
-    series.add(t, dir / file, 1 + i);
+    series.add(t, file, 1 + i);  // relative to series.pvd, which is in dir
   }
 }
 

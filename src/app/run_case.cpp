@@ -187,7 +187,7 @@ class FlowRun {
     const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {ns_.p()}}};
     const std::string file = numbered("fluid", step, "vtu");
     io::write_tree_vtu<D>(out_ / file, tree_, fields);
-    series.add(ns_.time(), out_ / file);
+    series.add(ns_.time(), file);  // relative to series.pvd, next to it
     if (capsules_) capsules_->snapshot(out_, step, ns_.time(), series);
   }
 

@@ -1,0 +1,72 @@
+// The output folder (issue 15): series.pvd names its files so ParaView finds them.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <vtkNew.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLDataElement.h>
+#include <vtkXMLDataParser.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include "app_support.hpp"
+
+namespace capsflow::app {
+namespace {
+
+using namespace testing;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using ::testing::StartsWith;
+
+// The 2D cavity for 4 steps, snapshots at steps 0 and 4.
+std::string cavity(const std::string& extra) {
+  return "run " + std::string(CAPSFLOW_CASES_DIR) +
+         "/cavity_2d.toml --quiet --set time.cfl=0 --set time.dt=0.005 --set time.t_end=0.02 "
+         "--set output.interval=4 " + extra;
+}
+
+long lines(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
+
+// Every file series.pvd lists, resolved against the .pvd's folder as ParaView does, is a
+// .vtu that VTK's reader opens; returns how many there were.
+int check_series(const fs::path& pvd) {
+  vtkNew<vtkXMLDataParser> parser;
+  parser->SetFileName(pvd.c_str());
+  EXPECT_EQ(parser->Parse(), 1) << pvd;
+  vtkXMLDataElement* collection = parser->GetRootElement()->FindNestedElementWithName("Collection");
+  if (collection == nullptr) return 0;
+  int n = 0;
+  for (int i = 0; i < collection->GetNumberOfNestedElements(); ++i) {
+    const fs::path file = pvd.parent_path() / collection->GetNestedElement(i)->GetAttribute("file");
+    EXPECT_TRUE(fs::exists(file)) << file;
+    vtkNew<vtkXMLUnstructuredGridReader> reader;
+    reader->SetFileName(file.c_str());
+    reader->Update();
+    EXPECT_GT(reader->GetOutput()->GetNumberOfPoints(), 0) << file;
+    ++n;
+  }
+  return n;
+}
+
+// A relative --out from another working directory: the .pvd still names files that exist
+// next to it (it used to name them relative to the working directory).
+TEST(AppOutput, SeriesNamesFilesRelativeToThePvd) {
+  const fs::path dir = scratch("series_relative");
+  fs::create_directories(dir / "work");
+  const std::string cd = "cd " + (dir / "work").string() + " && ";
+  const std::string cmd = cd + "OMP_NUM_THREADS=1 " + CAPSFLOW_BINARY + " " + cavity("--out runs/a") + " 2> " +
+                          (dir / "err.txt").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir / "err.txt");
+  EXPECT_EQ(check_series(dir / "work" / "runs" / "a" / "series.pvd"), 2);
+
+  // The same with a capsule: fluid and membrane pieces.
+  const std::string capsule = cd + "OMP_NUM_THREADS=1 " + CAPSFLOW_BINARY + " run " + CAPSFLOW_CASES_DIR +
+                              "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 "
+                              "--set capsule[0].nodes=642 --set time.t_end=0.004 --out runs/b 2> " +
+                              (dir / "err.txt").string();
+  ASSERT_EQ(std::system(capsule.c_str()), 0) << slurp(dir / "err.txt");
+  EXPECT_EQ(check_series(dir / "work" / "runs" / "b" / "series.pvd"), 4);
+}
+
+}  // namespace
+}  // namespace capsflow::app
