@@ -107,7 +107,8 @@ class FlowRun {
     fs::create_directories(out_);
     io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
     const auto columns = io::standard_diagnostics_columns();
-    io::DiagnosticsCsv diagnostics = request_.restart
+    // A restart into a new folder starts its own diagnostics and series.
+    io::DiagnosticsCsv diagnostics = request_.restart && fs::exists(out_ / "diagnostics.csv")
                                          ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
                                          : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
     io::PvdSeries series = request_.restart && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")

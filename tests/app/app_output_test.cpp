@@ -1,4 +1,5 @@
-// The output folder (issue 15): series.pvd names its files so ParaView finds them.
+// The output folder (issue 15): series.pvd names its files so ParaView finds them, and a
+// restart may start a new folder.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -66,6 +67,24 @@ TEST(AppOutput, SeriesNamesFilesRelativeToThePvd) {
                               (dir / "err.txt").string();
   ASSERT_EQ(std::system(capsule.c_str()), 0) << slurp(dir / "err.txt");
   EXPECT_EQ(check_series(dir / "work" / "runs" / "b" / "series.pvd"), 4);
+}
+
+// A restart into a new (nested) folder starts its own diagnostics.csv and series.pvd.
+TEST(AppOutput, RestartIntoANewFolder) {
+  const fs::path dir = scratch("restart_new");
+  const std::string base = cavity("--set output.checkpoint=true --set output.checkpoint_interval=2 ");
+  ASSERT_EQ(capsflow(base + "--out " + (dir / "old").string(), dir).status, 0);
+  const auto r = capsflow(base + "--set output.diagnostics_interval=1 --out " + (dir / "fresh" / "r").string() +
+                              " --restart " + (dir / "old" / "checkpoint_000002.h5").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string csv = slurp(dir / "fresh" / "r" / "diagnostics.csv");
+  EXPECT_THAT(csv, StartsWith("step,t,dt,"));
+  EXPECT_EQ(lines(csv), 3) << csv;  // the header, steps 3 and 4
+  EXPECT_EQ(check_series(dir / "fresh" / "r" / "series.pvd"), 1);  // step 4
+  // An empty existing folder works too.
+  fs::create_directories(dir / "empty");
+  EXPECT_EQ(capsflow(base + "--out " + (dir / "empty").string() + " --restart " +
+                         (dir / "old" / "checkpoint_000002.h5").string(), dir).status, 0);
 }
 
 }  // namespace
