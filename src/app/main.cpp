@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "app/output_dir.hpp"
 #include "app/run_case.hpp"
 #include "io/errors.hpp"
 
@@ -27,6 +28,10 @@ int main(int argc, char** argv) {
   run->add_option("--out", out, "Output directory");
   run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case");
   run->add_flag("--quiet", request.quiet, "No progress line");
+  run->add_flag("--force", request.force,
+                "Write into --out even if it holds another run (diagnostics.csv, case.toml, series.pvd or "
+                "checkpoints); without it such a folder is refused, unless --restart continues from a "
+                "checkpoint in it");
 
   try {
     cli.parse(argc, argv);
@@ -53,6 +58,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "capsflow: %s\n", e.what());
     return 2;
   } catch (const capsflow::io::CheckpointError& e) {
+    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    return 2;
+  } catch (const capsflow::app::RequestError& e) {
     std::fprintf(stderr, "capsflow: %s\n", e.what());
     return 2;
   } catch (const std::invalid_argument& e) {

@@ -15,6 +15,7 @@ struct RunRequest {
   std::optional<std::filesystem::path> out;
   std::optional<std::filesystem::path> restart;
   bool quiet = false;
+  bool force = false;                  // --force: write over another run's folder
 };
 
 // A run that started but could not finish (blow-up): the message names the step, the
@@ -24,8 +25,9 @@ class RunFailure : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Throws io::CaseError, io::CheckpointError or std::invalid_argument for bad input (before
-// anything is written), RunFailure for a run that blows up.
+// Throws io::CaseError, io::CheckpointError, RequestError (output_dir.hpp) or
+// std::invalid_argument for bad input (before anything is written), RunFailure for a run
+// that blows up.
 void run_case(const RunRequest& request);
 
 }  // namespace capsflow::app

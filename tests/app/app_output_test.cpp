@@ -1,5 +1,6 @@
-// The output folder (issue 15): series.pvd names its files so ParaView finds them, and a
-// restart may start a new folder.
+// The output folder (issue 15): series.pvd names its files so ParaView finds them, a restart
+// may start a new folder, another run's folder is not overwritten without --force, and an
+// unusable --out is refused before any work.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -85,6 +86,45 @@ TEST(AppOutput, RestartIntoANewFolder) {
   fs::create_directories(dir / "empty");
   EXPECT_EQ(capsflow(base + "--out " + (dir / "empty").string() + " --restart " +
                          (dir / "old" / "checkpoint_000002.h5").string(), dir).status, 0);
+}
+
+// Another run's folder is refused (status 2, naming it) unless --force; the old run is intact.
+TEST(AppOutput, AnotherRunsFolderNeedsForce) {
+  const fs::path dir = scratch("force");
+  const std::string out = (dir / "out").string();
+  ASSERT_EQ(capsflow(cavity("--out " + out), dir).status, 0);
+  const std::string before = slurp(dir / "out" / "diagnostics.csv");
+  const auto r = capsflow(cavity("--set time.t_end=0.01 --out " + out), dir);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(out));
+  EXPECT_THAT(r.err, HasSubstr("--force"));
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(slurp(dir / "out" / "diagnostics.csv"), before);
+  const auto forced = capsflow(cavity("--set time.t_end=0.01 --force --out " + out), dir);
+  EXPECT_EQ(forced.status, 0) << forced.err;
+  EXPECT_NE(slurp(dir / "out" / "diagnostics.csv"), before);
+  // A folder with only a checkpoint in it also holds a run.
+  fs::create_directories(dir / "ck");
+  write(dir / "ck", "checkpoint_000010.h5", "x");
+  EXPECT_EQ(capsflow(cavity("--out " + (dir / "ck").string()), dir).status, 2);
+}
+
+// An --out that cannot hold files is refused up front with status 2 and one line.
+TEST(AppOutput, UnusableOutIsRefusedBeforeWork) {
+  const fs::path dir = scratch("unusable");
+  write(dir, "plain.txt", "not a folder");
+  for (const fs::path out : {dir / "plain.txt", dir / "plain.txt" / "sub", fs::path("/proc/capsflow_x")}) {
+    const auto r = capsflow(cavity("--out " + out.string()), dir);
+    EXPECT_EQ(r.status, 2) << out << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr(out.string()));
+    EXPECT_EQ(lines(r.err), 1) << r.err;
+  }
+  EXPECT_EQ(slurp(dir / "plain.txt"), "not a folder");
+  if (::geteuid() != 0) {  // root writes anywhere
+    fs::create_directories(dir / "locked");
+    fs::permissions(dir / "locked", fs::perms::owner_read | fs::perms::owner_exec);
+    EXPECT_EQ(capsflow(cavity("--out " + (dir / "locked" / "o").string()), dir).status, 2);
+  }
 }
 
 }  // namespace
