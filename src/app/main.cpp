@@ -4,7 +4,9 @@
 
 #include <cstdio>
 #include <exception>
+#include <new>
 
+#include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
 #include "app/run_case.hpp"
 #include "io/errors.hpp"
@@ -18,7 +20,7 @@ int main(int argc, char** argv) {
 
   RunRequest request;
   std::string adapt;
-  std::string out, restart;
+  std::string out, restart, max_memory;
   auto* run = cli.add_subcommand("run", "Run a case file; outputs go to --out (default out/<case name>)");
   run->add_option("case", request.case_file, "Case file (TOML; docs/case-file.md)")->required();
   run->add_option("--adapt", adapt, "Adaptive refinement on or off (overrides adapt.enabled)")
@@ -28,6 +30,10 @@ int main(int argc, char** argv) {
   run->add_option("--out", out, "Output directory");
   run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case");
   run->add_flag("--quiet", request.quiet, "No progress line");
+  run->add_option("--max-memory", max_memory,
+                  "Refuse a run whose memory estimate exceeds this (e.g. 4G, 512M); runs are always refused "
+                  "when the estimate exceeds the machine's available memory")
+      ->type_name("SIZE");
   run->add_flag("--force", request.force,
                 "Write into --out even if it holds another run (diagnostics.csv, case.toml, series.pvd or "
                 "checkpoints); without it such a folder is refused, unless --restart continues from a "
@@ -48,6 +54,14 @@ int main(int argc, char** argv) {
   if (!adapt.empty()) request.adapt = adapt == "on";
   if (!out.empty()) request.out = out;
   if (!restart.empty()) request.restart = restart;
+  if (!max_memory.empty()) {
+    try {
+      request.max_memory = capsflow::app::parse_memory_size(max_memory);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "capsflow: --max-memory %s: %s\n", max_memory.c_str(), e.what());
+      return 2;
+    }
+  }
 
   try {
     capsflow::app::run_case(request);
@@ -66,6 +80,10 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "capsflow: %s: %s\n", request.case_file.string().c_str(), e.what());
     return 2;
+  } catch (const std::bad_alloc&) {  // the estimate (memory_estimate.hpp) is a lower bound when adaptive
+    std::fprintf(stderr, "\ncapsflow: out of memory (std::bad_alloc): the run needs more memory than is left; "
+                         "lower adapt.max_level or domain.roots, or free memory. Output so far is kept\n");
+    return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
     return 3;

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "app/capsule_set.hpp"
+#include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
 #include "app/progress.hpp"
 #include "fluid/navier_stokes.hpp"
@@ -222,6 +223,7 @@ void run_case(const RunRequest& req) {
   const fs::path out = req.out ? *req.out : (c.output.directory.empty() ? fs::path("out") / c.name : fs::path(c.output.directory));
   if (req.restart && !fs::exists(*req.restart))
     throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));
+  check_memory(c, req.max_memory, req.case_file.string());
   prepare_output_dir(out, req.force, req.restart);
   // Construction validates the flow options and boundary sides (std::invalid_argument).
   if (c.dimension == 2) {

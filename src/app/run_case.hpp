@@ -1,5 +1,6 @@
 #pragma once
 // `capsflow run`: a case file to a finished run directory.
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
@@ -16,6 +17,7 @@ struct RunRequest {
   std::optional<std::filesystem::path> restart;
   bool quiet = false;
   bool force = false;                  // --force: write over another run's folder
+  std::optional<std::uint64_t> max_memory;  // --max-memory, bytes
 };
 
 // A run that started but could not finish (blow-up): the message names the step, the
