@@ -1,11 +1,13 @@
 // The capsflow command (DESIGN.md, "What the user sees"). Exit status: 0 done, 2 bad
-// input (one line on stderr naming the file or key), 3 a run that failed on the way.
+// input (one line on stderr naming the file or key), 3 a run that failed on the way, 130 or
+// 143 a run stopped by SIGINT or SIGTERM after writing a checkpoint (interrupt.hpp).
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <exception>
 #include <new>
 
+#include "app/interrupt.hpp"
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
 #include "app/run_case.hpp"
@@ -65,6 +67,9 @@ int main(int argc, char** argv) {
 
   try {
     capsflow::app::run_case(request);
+  } catch (const capsflow::app::Interrupted& e) {
+    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    return e.exit_status();
   } catch (const capsflow::app::RunFailure& e) {
     std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
     return 3;

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "app/capsule_set.hpp"
+#include "app/interrupt.hpp"
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
 #include "app/progress.hpp"
@@ -155,9 +156,9 @@ class FlowRun {
       if (c.output.vtu && (step % c.output.interval == 0 || last)) snapshot(series, step);
       if (c.output.checkpoint &&
           ((c.output.checkpoint_interval > 0 && step % c.output.checkpoint_interval == 0) || last))
-        io::write_checkpoint<D>(out_ / numbered("checkpoint", step, "h5"), tree_, {ns_.time(), step, st.dt},
-                                capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+        (void)checkpoint(step, st.dt);
       progress_.update({step, ns_.time(), t_end, st.dt, tree_.num_leaves(), tree_.depth(), st.cycles()}, last);
+      if (interrupt_signal() != 0) stop_interrupted(step, st.dt);
     }
     progress_.finish();
     if (c.output.cells_csv) write_cells_csv();
@@ -182,6 +183,20 @@ class FlowRun {
       if (std::isnan(s)) return s;
     }
     return std::sqrt(worst);
+  }
+
+  fs::path checkpoint(long step, double dt) {
+    const fs::path file = out_ / numbered("checkpoint", step, "h5");
+    io::write_checkpoint<D>(file, tree_, {ns_.time(), step, dt},
+                            capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+    return file;
+  }
+
+  // SIGINT or SIGTERM (interrupt.hpp): the step is complete; keep it in a checkpoint whatever
+  // output.checkpoint says, so the run can continue with --restart.
+  [[noreturn]] void stop_interrupted(long step, double dt) {
+    progress_.finish();
+    throw Interrupted(interrupt_signal(), step, ns_.time(), checkpoint(step, dt));
   }
 
   void snapshot(io::PvdSeries& series, long step) {
@@ -225,6 +240,7 @@ void run_case(const RunRequest& req) {
     throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));
   check_memory(c, req.max_memory, req.case_file.string());
   prepare_output_dir(out, req.force, req.restart);
+  install_interrupt_handlers();
   // Construction validates the flow options and boundary sides (std::invalid_argument).
   if (c.dimension == 2) {
     FlowRun<2> run(c, req, out);

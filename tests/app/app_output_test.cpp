@@ -113,7 +113,7 @@ TEST(AppOutput, AnotherRunsFolderNeedsForce) {
 TEST(AppOutput, UnusableOutIsRefusedBeforeWork) {
   const fs::path dir = scratch("unusable");
   write(dir, "plain.txt", "not a folder");
-  for (const fs::path out : {dir / "plain.txt", dir / "plain.txt" / "sub", fs::path("/proc/capsflow_x")}) {
+  for (const fs::path& out : {dir / "plain.txt", dir / "plain.txt" / "sub", fs::path("/proc/capsflow_x")}) {
     const auto r = capsflow(cavity("--out " + out.string()), dir);
     EXPECT_EQ(r.status, 2) << out << ": " << r.err;
     EXPECT_THAT(r.err, HasSubstr(out.string()));
