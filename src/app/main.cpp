@@ -6,12 +6,24 @@
 #include <cstdio>
 #include <exception>
 #include <new>
+#include <string>
 
 #include "app/interrupt.hpp"
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
+#include "app/progress.hpp"
 #include "app/run_case.hpp"
 #include "io/errors.hpp"
+
+namespace {
+
+// One line on stderr; after the end of a progress line that is still open on the terminal.
+void report(const std::string& message) {
+  if (capsflow::app::progress_line_open()) std::fputc('\n', stderr);
+  std::fprintf(stderr, "capsflow: %s\n", message.c_str());
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using capsflow::app::RunRequest;
@@ -68,29 +80,29 @@ int main(int argc, char** argv) {
   try {
     capsflow::app::run_case(request);
   } catch (const capsflow::app::Interrupted& e) {
-    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    report(e.what());
     return e.exit_status();
   } catch (const capsflow::app::RunFailure& e) {
-    std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
+    report(e.what());
     return 3;
   } catch (const capsflow::io::CaseError& e) {
-    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    report(e.what());
     return 2;
   } catch (const capsflow::io::CheckpointError& e) {
-    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    report(e.what());
     return 2;
   } catch (const capsflow::app::RequestError& e) {
-    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    report(e.what());
     return 2;
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "capsflow: %s: %s\n", request.case_file.string().c_str(), e.what());
+    report(request.case_file.string() + ": " + e.what());
     return 2;
   } catch (const std::bad_alloc&) {  // the estimate (memory_estimate.hpp) is a lower bound when adaptive
-    std::fprintf(stderr, "\ncapsflow: out of memory (std::bad_alloc): the run needs more memory than is left; "
-                         "lower adapt.max_level or domain.roots, or free memory. Output so far is kept\n");
+    report("out of memory (std::bad_alloc): the run needs more memory than is left; lower adapt.max_level or "
+           "domain.roots, or free memory. Output so far is kept");
     return 3;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
+    report(e.what());
     return 3;
   }
   return 0;

@@ -238,6 +238,8 @@ void run_case(const RunRequest& req) {
   const fs::path out = req.out ? *req.out : (c.output.directory.empty() ? fs::path("out") / c.name : fs::path(c.output.directory));
   if (req.restart && !fs::exists(*req.restart))
     throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));
+  if (req.restart && fs::is_directory(*req.restart))
+    throw io::CheckpointError(fmt::format("{}: is a directory, not a checkpoint file", req.restart->string()));
   check_memory(c, req.max_memory, req.case_file.string());
   prepare_output_dir(out, req.force, req.restart);
   install_interrupt_handlers();

@@ -1,5 +1,5 @@
-// Runs that cannot fit in memory are refused before they allocate, and a signal ends a run
-// with a checkpoint to restart from (issue 15).
+// Runs that cannot fit in memory are refused before they allocate, a signal ends a run with
+// a checkpoint to restart from, and failure messages say what went wrong (issue 15).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -98,6 +98,22 @@ TEST(AppLimits, SignalWritesACheckpointAndExits) {
   ASSERT_EQ(r.status, 0) << r.err;
   const std::string csv = slurp(out / "diagnostics.csv");
   EXPECT_THAT(csv, HasSubstr("\n" + std::to_string(step + 2) + ","));
+}
+
+// Status-3 messages start on their own line only when a progress line is on the terminal
+// (stderr here is a file); unreadable files and directories are named as such.
+TEST(AppLimits, FailureMessagesSayWhatHappened) {
+  const fs::path dir = scratch("messages");
+  auto r = capsflow(cavity("--set time.dt=0.5 --set time.t_end=100 --out " + (dir / "blow").string()), dir);
+  EXPECT_EQ(r.status, 3);
+  EXPECT_THAT(r.err, StartsWith("capsflow: "));
+  r = capsflow("run /proc/self/mem --quiet --out " + (dir / "mem").string(), dir);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_THAT(r.err, HasSubstr("cannot read"));
+  EXPECT_THAT(r.err, Not(HasSubstr("missing")));
+  r = capsflow(cavity("--out " + (dir / "o").string() + " --restart " + dir.string()), dir);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_THAT(r.err, HasSubstr("is a directory"));
 }
 
 }  // namespace
