@@ -34,6 +34,10 @@ bool same_folder(const fs::path& a, const fs::path& b) {
 
 }  // namespace
 
+bool continues_in_place(const fs::path& out, const std::optional<fs::path>& restart) {
+  return restart && same_folder(restart->parent_path(), out);
+}
+
 void prepare_output_dir(const fs::path& out, bool force, const std::optional<fs::path>& restart) {
   const std::string name = out.string();
   std::error_code ec;
@@ -42,8 +46,7 @@ void prepare_output_dir(const fs::path& out, bool force, const std::optional<fs:
     throw RequestError(fmt::format("{}: --out is not a folder (it is a file)", name));
   if (fs::is_directory(status) && !force) {
     const auto marker = run_marker(out);
-    const bool continuing = restart && same_folder(restart->parent_path(), out);
-    if (marker && !continuing)
+    if (marker && !continues_in_place(out, restart))
       throw RequestError(fmt::format("{}: holds another run ({}); choose another --out, or add --force to write over it",
                                      name, *marker));
   }

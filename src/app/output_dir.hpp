@@ -18,6 +18,11 @@ class RequestError : public std::runtime_error {
 // naming the folder if it cannot, or if it holds another run (diagnostics.csv, case.toml,
 // series.pvd or a checkpoint) and neither `force` is set nor `restart` is a checkpoint in
 // that same folder (the way to continue a run in place).
+// True when `restart` is a checkpoint inside `out`: the run continues its own diagnostics and
+// series there. Otherwise (a new folder, or another run's with --force) they start afresh.
+[[nodiscard]] bool continues_in_place(const std::filesystem::path& out,
+                                      const std::optional<std::filesystem::path>& restart);
+
 void prepare_output_dir(const std::filesystem::path& out, bool force,
                         const std::optional<std::filesystem::path>& restart);
 

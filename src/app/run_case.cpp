@@ -110,12 +110,13 @@ class FlowRun {
     fs::create_directories(out_);
     io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
     const auto columns = io::standard_diagnostics_columns();
-    // A restart into a new folder starts its own diagnostics and series.
-    io::DiagnosticsCsv diagnostics = request_.restart && fs::exists(out_ / "diagnostics.csv")
+    // A restart into a new folder, or over another run (--force), starts its own diagnostics and series.
+    const bool in_place = continues_in_place(out_, request_.restart);
+    io::DiagnosticsCsv diagnostics = in_place && fs::exists(out_ / "diagnostics.csv")
                                          ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
                                          : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
-    io::PvdSeries series = request_.restart && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
-                                                                                : io::PvdSeries(out_ / "series.pvd");
+    io::PvdSeries series = in_place && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
+                                                                        : io::PvdSeries(out_ / "series.pvd");
     if (request_.restart) series.truncate_after(ns_.time());
     else if (c.output.vtu) snapshot(series, step);
 

@@ -82,6 +82,13 @@ TEST(AppOutput, RestartIntoANewFolder) {
   EXPECT_THAT(csv, StartsWith("step,t,dt,"));
   EXPECT_EQ(lines(csv), 3) << csv;  // the header, steps 3 and 4
   EXPECT_EQ(check_series(dir / "fresh" / "r" / "series.pvd"), 1);  // step 4
+  // Over another run only with --force, and then its diagnostics are not continued.
+  ASSERT_EQ(capsflow(base + "--out " + (dir / "other").string(), dir).status, 0);
+  const std::string restart = " --restart " + (dir / "old" / "checkpoint_000002.h5").string();
+  EXPECT_EQ(capsflow(base + "--out " + (dir / "other").string() + restart, dir).status, 2);
+  EXPECT_EQ(capsflow(base + "--set output.diagnostics_interval=1 --force --out " + (dir / "other").string() + restart,
+                     dir).status, 0);
+  EXPECT_EQ(lines(slurp(dir / "other" / "diagnostics.csv")), 3);  // the header, steps 3 and 4
   // An empty existing folder works too.
   fs::create_directories(dir / "empty");
   EXPECT_EQ(capsflow(base + "--out " + (dir / "empty").string() + " --restart " +
