@@ -9,5 +9,5 @@ cd "$(dirname "$0")/.."
 bash tools/setup.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j "$(nproc)" --target capsflow
-./build/src/app/capsflow run cases/relaxation_quick.toml --out out/relaxation_quick
+./build/src/app/capsflow run cases/relaxation_quick.toml --force --out out/relaxation_quick  # --force: a rerun replaces the last one
 /usr/bin/python3 tools/plot_relaxation.py out/relaxation_quick

@@ -124,7 +124,7 @@ void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t,
                                        .elements = mesh.elements,
                                        .order = surface_order(mesh.order),
                                        .point_data = points, .cell_data = cells});
-    series.add(t, dir / file, 1 + i);
+    series.add(t, file, 1 + i);  // relative to series.pvd, which is in dir
   }
 }
 

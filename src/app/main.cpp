@@ -1,12 +1,29 @@
 // The capsflow command (DESIGN.md, "What the user sees"). Exit status: 0 done, 2 bad
-// input (one line on stderr naming the file or key), 3 a run that failed on the way.
+// input (one line on stderr naming the file or key), 3 a run that failed on the way, 130 or
+// 143 a run stopped by SIGINT or SIGTERM after writing a checkpoint (interrupt.hpp).
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <exception>
+#include <new>
+#include <string>
 
+#include "app/interrupt.hpp"
+#include "app/memory_estimate.hpp"
+#include "app/output_dir.hpp"
+#include "app/progress.hpp"
 #include "app/run_case.hpp"
 #include "io/errors.hpp"
+
+namespace {
+
+// One line on stderr; after the end of a progress line that is still open on the terminal.
+void report(const std::string& message) {
+  if (capsflow::app::progress_line_open()) std::fputc('\n', stderr);
+  std::fprintf(stderr, "capsflow: %s\n", message.c_str());
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using capsflow::app::RunRequest;
@@ -17,7 +34,7 @@ int main(int argc, char** argv) {
 
   RunRequest request;
   std::string adapt;
-  std::string out, restart;
+  std::string out, restart, max_memory;
   auto* run = cli.add_subcommand("run", "Run a case file; outputs go to --out (default out/<case name>)");
   run->add_option("case", request.case_file, "Case file (TOML; docs/case-file.md)")->required();
   run->add_option("--adapt", adapt, "Adaptive refinement on or off (overrides adapt.enabled)")
@@ -27,6 +44,14 @@ int main(int argc, char** argv) {
   run->add_option("--out", out, "Output directory");
   run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case");
   run->add_flag("--quiet", request.quiet, "No progress line");
+  run->add_option("--max-memory", max_memory,
+                  "Refuse a run whose memory estimate exceeds this (e.g. 4G, 512M); runs are always refused "
+                  "when the estimate exceeds the machine's available memory")
+      ->type_name("SIZE");
+  run->add_flag("--force", request.force,
+                "Write into --out even if it holds another run (diagnostics.csv, case.toml, series.pvd or "
+                "checkpoints); without it such a folder is refused, unless --restart continues from a "
+                "checkpoint in it");
 
   try {
     cli.parse(argc, argv);
@@ -43,23 +68,41 @@ int main(int argc, char** argv) {
   if (!adapt.empty()) request.adapt = adapt == "on";
   if (!out.empty()) request.out = out;
   if (!restart.empty()) request.restart = restart;
+  if (!max_memory.empty()) {
+    try {
+      request.max_memory = capsflow::app::parse_memory_size(max_memory);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "capsflow: --max-memory %s: %s\n", max_memory.c_str(), e.what());
+      return 2;
+    }
+  }
 
   try {
     capsflow::app::run_case(request);
+  } catch (const capsflow::app::Interrupted& e) {
+    report(e.what());
+    return e.exit_status();
   } catch (const capsflow::app::RunFailure& e) {
-    std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
+    report(e.what());
     return 3;
   } catch (const capsflow::io::CaseError& e) {
-    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    report(e.what());
     return 2;
   } catch (const capsflow::io::CheckpointError& e) {
-    std::fprintf(stderr, "capsflow: %s\n", e.what());
+    report(e.what());
+    return 2;
+  } catch (const capsflow::app::RequestError& e) {
+    report(e.what());
     return 2;
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "capsflow: %s: %s\n", request.case_file.string().c_str(), e.what());
+    report(request.case_file.string() + ": " + e.what());
     return 2;
+  } catch (const std::bad_alloc&) {  // the estimate (memory_estimate.hpp) is a lower bound when adaptive
+    report("out of memory (std::bad_alloc): the run needs more memory than is left; lower adapt.max_level or "
+           "domain.roots, or free memory. Output so far is kept");
+    return 3;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "\ncapsflow: %s\n", e.what());
+    report(e.what());
     return 3;
   }
   return 0;

@@ -2,11 +2,18 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 
 #include <fmt/format.h>
 
 namespace capsflow::app {
+
+namespace {
+std::atomic<bool> g_line_open{false};  // one progress line per process
+}  // namespace
+
+bool progress_line_open() { return g_line_open; }
 
 ProgressLine::ProgressLine(bool quiet)
     : quiet_(quiet), terminal_(isatty(fileno(stderr)) != 0), start_(std::chrono::steady_clock::now()),
@@ -38,6 +45,7 @@ void ProgressLine::update(const ProgressState& s, bool force) {
     if (width < last_width_) line.append(last_width_ - width, ' ');
     last_width_ = width;
     std::fprintf(stderr, "\r%s", line.c_str());
+    g_line_open = true;
   } else {
     std::fprintf(stderr, "%s\n", line.c_str());
   }
@@ -45,7 +53,7 @@ void ProgressLine::update(const ProgressState& s, bool force) {
 }
 
 void ProgressLine::finish() {
-  if (!quiet_ && terminal_) std::fprintf(stderr, "\n");
+  if (g_line_open.exchange(false)) std::fprintf(stderr, "\n");
 }
 
 }  // namespace capsflow::app

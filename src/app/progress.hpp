@@ -14,6 +14,10 @@ struct ProgressState {
   int mg_cycles = 0;
 };
 
+// True while a progress line is on the terminal without its newline: a message printed then
+// must start on a new line (and only then: with --quiet or into a log the line is complete).
+[[nodiscard]] bool progress_line_open();
+
 class ProgressLine {
  public:
   explicit ProgressLine(bool quiet);

@@ -13,6 +13,9 @@
 #include <fmt/format.h>
 
 #include "app/capsule_set.hpp"
+#include "app/interrupt.hpp"
+#include "app/memory_estimate.hpp"
+#include "app/output_dir.hpp"
 #include "app/progress.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "io/atomic_write.hpp"
@@ -107,11 +110,13 @@ class FlowRun {
     fs::create_directories(out_);
     io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
     const auto columns = io::standard_diagnostics_columns();
-    io::DiagnosticsCsv diagnostics = request_.restart
+    // A restart into a new folder, or over another run (--force), starts its own diagnostics and series.
+    const bool in_place = continues_in_place(out_, request_.restart);
+    io::DiagnosticsCsv diagnostics = in_place && fs::exists(out_ / "diagnostics.csv")
                                          ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
                                          : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
-    io::PvdSeries series = request_.restart && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
-                                                                                : io::PvdSeries(out_ / "series.pvd");
+    io::PvdSeries series = in_place && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
+                                                                        : io::PvdSeries(out_ / "series.pvd");
     if (request_.restart) series.truncate_after(ns_.time());
     else if (c.output.vtu) snapshot(series, step);
 
@@ -152,9 +157,9 @@ class FlowRun {
       if (c.output.vtu && (step % c.output.interval == 0 || last)) snapshot(series, step);
       if (c.output.checkpoint &&
           ((c.output.checkpoint_interval > 0 && step % c.output.checkpoint_interval == 0) || last))
-        io::write_checkpoint<D>(out_ / numbered("checkpoint", step, "h5"), tree_, {ns_.time(), step, st.dt},
-                                capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+        (void)checkpoint(step, st.dt);
       progress_.update({step, ns_.time(), t_end, st.dt, tree_.num_leaves(), tree_.depth(), st.cycles()}, last);
+      if (interrupt_signal() != 0) stop_interrupted(step, st.dt);
     }
     progress_.finish();
     if (c.output.cells_csv) write_cells_csv();
@@ -181,13 +186,27 @@ class FlowRun {
     return std::sqrt(worst);
   }
 
+  fs::path checkpoint(long step, double dt) {
+    const fs::path file = out_ / numbered("checkpoint", step, "h5");
+    io::write_checkpoint<D>(file, tree_, {ns_.time(), step, dt},
+                            capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+    return file;
+  }
+
+  // SIGINT or SIGTERM (interrupt.hpp): the step is complete; keep it in a checkpoint whatever
+  // output.checkpoint says, so the run can continue with --restart.
+  [[noreturn]] void stop_interrupted(long step, double dt) {
+    progress_.finish();
+    throw Interrupted(interrupt_signal(), step, ns_.time(), checkpoint(step, dt));
+  }
+
   void snapshot(io::PvdSeries& series, long step) {
     std::vector<std::span<const double>> u;
     for (int d = 0; d < D; ++d) u.push_back(ns_.u(d));
     const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {ns_.p()}}};
     const std::string file = numbered("fluid", step, "vtu");
     io::write_tree_vtu<D>(out_ / file, tree_, fields);
-    series.add(ns_.time(), out_ / file);
+    series.add(ns_.time(), file);  // relative to series.pvd, next to it
     if (capsules_) capsules_->snapshot(out_, step, ns_.time(), series);
   }
 
@@ -220,6 +239,11 @@ void run_case(const RunRequest& req) {
   const fs::path out = req.out ? *req.out : (c.output.directory.empty() ? fs::path("out") / c.name : fs::path(c.output.directory));
   if (req.restart && !fs::exists(*req.restart))
     throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));
+  if (req.restart && fs::is_directory(*req.restart))
+    throw io::CheckpointError(fmt::format("{}: is a directory, not a checkpoint file", req.restart->string()));
+  check_memory(c, req.max_memory, req.case_file.string());
+  prepare_output_dir(out, req.force, req.restart);
+  install_interrupt_handlers();
   // Construction validates the flow options and boundary sides (std::invalid_argument).
   if (c.dimension == 2) {
     FlowRun<2> run(c, req, out);

@@ -4,8 +4,9 @@
 // boundary condition further down. Value ranges are checked afterwards by validate_case.
 #include <cerrno>
 #include <cstring>
-#include <fstream>
-#include <sstream>
+#include <cstdio>
+#include <memory>
+#include <string>
 
 #include "io/case_config.hpp"
 #include "io/case_overrides.hpp"
@@ -190,11 +191,16 @@ CaseConfig parse_case(const std::filesystem::path& path, std::span<const std::st
   const CaseSource source{.name = path.string()};
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) source.fail_file("cannot read the case file: it is a directory");
-  std::ifstream in(path, std::ios::binary);
+  // stdio rather than a stream: a stream's buffer turns a read error (EIO from
+  // /proc/self/mem, a failing disk) into an end of file, and the case into an empty one.
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> in(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!in) source.fail_file(fmt::format("cannot read the case file: {}", std::strerror(errno)));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_case_text(text.str(), path.string(), overrides);
+  std::string text;
+  char buffer[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buffer, 1, sizeof buffer, in.get())) > 0) text.append(buffer, got);
+  if (std::ferror(in.get())) source.fail_file(fmt::format("cannot read the case file: {}", std::strerror(errno)));
+  return parse_case_text(text, path.string(), overrides);
 }
 
 }  // namespace capsflow::io

@@ -78,6 +78,15 @@ PvdSeries PvdSeries::load(const std::filesystem::path& path) {
     series.entries_.push_back(std::move(e));
   }
   if (!collection) throw std::runtime_error(fmt::format("{}: not a .pvd collection", path.string()));
+  // Older series named files relative to the run's working directory; ParaView resolves
+  // against the .pvd's folder, where the snapshots are.
+  const std::filesystem::path folder = path.parent_path();
+  for (PvdEntry& e : series.entries_) {
+    const std::filesystem::path file(e.file);
+    std::error_code ec;
+    if (file.is_absolute() || std::filesystem::exists(folder / file, ec)) continue;
+    if (std::filesystem::exists(folder / file.filename(), ec)) e.file = file.filename().generic_string();
+  }
   return series;
 }
 

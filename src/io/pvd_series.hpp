@@ -23,11 +23,14 @@ class PvdSeries {
   explicit PvdSeries(std::filesystem::path path) : path_(std::move(path)) {}
 
   // A series written earlier by PvdSeries (for a restart). Throws std::runtime_error naming
-  // the file if it cannot be read or is not in that format.
+  // the file if it cannot be read or is not in that format. Series written before issue 15 named
+  // their files relative to the working directory of the run ("out/case/fluid_000000.vtu"):
+  // an entry that does not resolve against the .pvd's directory but whose file name does
+  // is normalised to that name, since snapshots always sit next to their .pvd.
   [[nodiscard]] static PvdSeries load(const std::filesystem::path& path);
 
-  // Lists `file` at `time` and rewrites the .pvd. An absolute `file` is stored relative to
-  // the .pvd's directory.
+  // Lists `file` at `time` and rewrites the .pvd. `file` is relative to the .pvd's
+  // directory (ParaView resolves it there), or absolute (then stored relative to it).
   void add(double time, const std::filesystem::path& file, int part = 0);
 
   // Drops the entries later than `time` (a restart from a checkpoint at that time) and

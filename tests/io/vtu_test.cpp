@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <map>
 
 #include "io/pvd_series.hpp"
@@ -224,6 +225,27 @@ TEST(io_pvd_series, ListsEverySnapshot) {
   EXPECT_EQ(again.entries(), series.entries());
   again.truncate_after(0.1);
   EXPECT_EQ(PvdSeries::load(dir.path() / "series.pvd").entries().size(), 4u);
+}
+
+// Series written before issue 15 named files relative to the run's working directory
+// ("out/case/fluid_000000.vtu"); loading one (a restart) names them relative to the .pvd's
+// folder, where ParaView looks and where the snapshots are.
+TEST(io_pvd_series, LoadNormalisesWorkingDirectoryPaths) {
+  const ScratchDir dir("pvd_old");
+  std::ofstream(dir.path() / "fluid_000000.vtu") << "x";
+  std::ofstream(dir.path() / "membrane_000000.vtu") << "x";
+  std::ofstream(dir.path() / "series.pvd")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n"
+         "    <DataSet timestep=\"0\" group=\"\" part=\"0\" file=\"out/relaxation_quick/fluid_000000.vtu\"/>\n"
+         "    <DataSet timestep=\"0\" group=\"\" part=\"1\" file=\"membrane_000000.vtu\"/>\n"
+         "  </Collection>\n</VTKFile>\n";
+  PvdSeries series = PvdSeries::load(dir.path() / "series.pvd");
+  ASSERT_EQ(series.entries().size(), 2u);
+  EXPECT_EQ(series.entries()[0].file, "fluid_000000.vtu");
+  EXPECT_EQ(series.entries()[1].file, "membrane_000000.vtu");
+  series.truncate_after(1.0);  // a restart rewrites the file in the new style
+  EXPECT_EQ(PvdSeries::load(dir.path() / "series.pvd").entries()[0].file, "fluid_000000.vtu");
 }
 
 }  // namespace
