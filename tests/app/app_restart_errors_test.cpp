@@ -1,0 +1,136 @@
+// A checkpoint a run cannot continue from (issue 15): `capsflow run --restart` refuses it
+// with one line and exit status 2 before touching the output directory — NaN or absurd
+// times, NaN fields, another case's capsules, flipped bytes.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include "app_support.hpp"
+
+namespace capsflow::app {
+namespace {
+
+using namespace testing;
+using ::testing::HasSubstr;
+
+const char* kCavity = R"(name = "c"
+dimension = 2
+[domain]
+roots = [1, 1]
+[fluid.boundary]
+x_lo = { type = "wall" }
+x_hi = { type = "wall" }
+y_lo = { type = "wall" }
+y_hi = { type = "moving_wall", velocity = [1.0, 0.0] }
+[adapt]
+min_level = 3
+max_level = 4
+[time]
+dt = 0.01
+t_end = 0.02
+[output]
+checkpoint = true
+)";
+
+// A finished run (out/) with its final checkpoint, and the case to continue it.
+class AppRestartErrors : public ::testing::Test {
+ protected:
+  AppRestartErrors() : dir_(scratch("restart_errors")) {
+    case_ = write(dir_, "case.toml", kCavity);
+    const auto r = capsflow("run " + case_.string() + " --quiet --out " + out().string(), dir_);
+    EXPECT_EQ(r.status, 0) << r.err;
+  }
+  fs::path out() const { return dir_ / "out"; }
+  fs::path checkpoint() const { return out() / "checkpoint_000002.h5"; }
+
+  // Restarts into the run's own folder with a later t_end: refused, one line naming the
+  // checkpoint and `message`, the folder as it was.
+  void expect_refused(const std::string& message) {
+    const std::string before = slurp(out() / "diagnostics.csv");
+    const auto r = capsflow("run " + case_.string() + " --quiet --set time.t_end=0.04 --out " + out().string() +
+                                " --restart " + checkpoint().string(),
+                            dir_);
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_THAT(r.err, HasSubstr(checkpoint().string() + ": "));
+    EXPECT_THAT(r.err, HasSubstr(message));
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+    EXPECT_EQ(slurp(out() / "diagnostics.csv"), before) << "the diagnostics are untouched";
+  }
+
+  // Overwrites element `index` of a dataset of the checkpoint (HDF5 recomputes its checksum).
+  void set_value(const char* dataset, std::size_t index, double value) {
+    const hid_t f = H5Fopen(checkpoint().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t set = H5Dopen2(f, dataset, H5P_DEFAULT);
+    const hid_t space = H5Dget_space(set);
+    std::vector<double> v(static_cast<std::size_t>(std::max<hssize_t>(1, H5Sget_simple_extent_npoints(space))));
+    ASSERT_GE(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), 0);
+    v.at(index) = value;
+    ASSERT_GE(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), 0);
+    H5Sclose(space);
+    H5Dclose(set);
+    H5Fclose(f);
+  }
+
+  fs::path dir_, case_;
+};
+
+TEST_F(AppRestartErrors, NaNTime) {
+  set_value("/scalars/time", 0, std::numeric_limits<double>::quiet_NaN());
+  expect_refused("/scalars/time = nan: must be finite");
+}
+
+TEST_F(AppRestartErrors, HugeNegativeTime) {
+  set_value("/scalars/time", 0, -1e300);
+  expect_refused("/scalars/time = -1e+300: must be >= 0");
+}
+
+TEST_F(AppRestartErrors, TimeAtTheEnd) {
+  set_value("/scalars/time", 0, 0.04);
+  expect_refused("is at or past time.t_end = 0.04 of this case: nothing left to run");
+}
+
+TEST_F(AppRestartErrors, NaNVelocity) {
+  set_value("/fields/u.x", 3, std::numeric_limits<double>::quiet_NaN());
+  expect_refused("/fields/u.x[3] = nan: every value must be finite");
+}
+
+TEST_F(AppRestartErrors, CapsuleOfAnotherCase) {
+  const hid_t f = H5Fopen(checkpoint().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  const hsize_t shape[2] = {642, 3};
+  const hid_t space = H5Screate_simple(2, shape, nullptr);
+  const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);  // checksummed, as capsflow writes it
+  H5Pset_chunk(dcpl, 2, shape);
+  H5Pset_fletcher32(dcpl);
+  const hid_t set = H5Dcreate2(f, "/extras/capsule_0_positions", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl,
+                               H5P_DEFAULT);
+  H5Pclose(dcpl);
+  const std::vector<double> zeros(642 * 3, 0.0);
+  ASSERT_GE(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, zeros.data()), 0);
+  H5Dclose(set);
+  H5Sclose(space);
+  H5Fclose(f);
+  expect_refused("the checkpoint holds 1 capsule(s), this case has 0");
+}
+
+TEST_F(AppRestartErrors, FlippedByteInsideADataset) {
+  // Plant a value that occurs nowhere else in u.x, then flip a bit of its third byte.
+  set_value("/fields/u.x", 5, 0.123456789012345);
+  std::string bytes = slurp(checkpoint());
+  const auto pattern = std::bit_cast<std::array<char, 8>>(0.123456789012345);
+  const std::size_t at = bytes.find(std::string_view(pattern.data(), 8));
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 2] = static_cast<char>(bytes[at + 2] ^ 0x01);
+  std::ofstream(checkpoint(), std::ios::binary | std::ios::trunc) << bytes;
+  expect_refused("dataset /fields/u.x fails its checksum: the file is corrupt");
+}
+
+}  // namespace
+}  // namespace capsflow::app
