@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -35,6 +36,22 @@ Handle dataspace(const std::vector<hsize_t>& shape) {
 }  // namespace
 
 namespace {
+// FNV-1a (64 bits) over the values' little-endian bytes, row-major: each dataset's own
+// checksum, kept in its (checksummed) object header. Fletcher32 alone is fooled by a chunk
+// zeroed together with its checksum (all-zero data sums to zero); this one is not.
+std::uint64_t value_checksum(const void* data, std::size_t values, std::size_t value_bytes) {
+  std::uint64_t h = 14695981039346656037ull;
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t v = 0; v < values; ++v)
+    for (std::size_t b = 0; b < value_bytes; ++b) {
+      const std::size_t at = std::endian::native == std::endian::little ? b : value_bytes - 1 - b;
+      h = (h ^ bytes[v * value_bytes + at]) * 1099511628211ull;
+    }
+  return h;
+}
+
+constexpr char kChecksumAttribute[] = "checksum";
+
 // Chunks of at most 64 Ki values (512 KiB of doubles): each carries its own checksum, and
 // one fits HDF5's default 1 MiB chunk cache.
 std::vector<hsize_t> chunk_shape(const std::vector<hsize_t>& shape) {
@@ -66,6 +83,8 @@ void H5Io::write(hid_t loc, const std::string& name, hid_t type, const std::vect
                    H5Dclose);
   if (!set.valid() || H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
     fail(fmt::format("cannot write dataset {}", name));
+  const std::uint64_t sum = value_checksum(data, static_cast<std::size_t>(n), H5Tget_size(type));
+  attribute(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, {}, &sum);
 }
 
 void H5Io::attribute(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
@@ -153,6 +172,13 @@ Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::s
     fail(error_stack_mentions_checksum()
              ? fmt::format("dataset {} fails its checksum: the file is corrupt", path)
              : fmt::format("cannot read dataset {} (corrupt file?)", path));
+  if (require_checksums_) {
+    if (H5Aexists(set.get(), kChecksumAttribute) <= 0)
+      fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
+    const auto sum = read_attribute<std::uint64_t>(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, path + "@checksum");
+    if (sum.values.size() != 1 || sum.values[0] != value_checksum(a.values.data(), a.values.size(), sizeof(T)))
+      fail(fmt::format("dataset {} fails its checksum: the file is corrupt", path));
+  }
   return a;
 }
 
@@ -216,6 +242,8 @@ template Array<double> H5Io::read<double>(hid_t, const std::string&, hid_t, cons
 template Array<std::int64_t> H5Io::read<std::int64_t>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<std::uint64_t> H5Io::read<std::uint64_t>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<double> H5Io::read_attribute<double>(hid_t, const std::string&, hid_t, const std::string&) const;
+template Array<std::uint64_t> H5Io::read_attribute<std::uint64_t>(hid_t, const std::string&, hid_t,
+                                                                  const std::string&) const;
 template Array<std::int32_t> H5Io::read_attribute<std::int32_t>(hid_t, const std::string&, hid_t,
                                                                 const std::string&) const;
 

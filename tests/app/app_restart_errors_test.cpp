@@ -3,7 +3,6 @@
 // times, NaN fields, another case's capsules, flipped bytes.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <hdf5.h>
 
 #include <algorithm>
 #include <array>
@@ -12,6 +11,7 @@
 #include <limits>
 
 #include "app_support.hpp"
+#include "io/checkpoint.hpp"
 
 namespace capsflow::app {
 namespace {
@@ -63,66 +63,51 @@ class AppRestartErrors : public ::testing::Test {
     EXPECT_EQ(slurp(out() / "diagnostics.csv"), before) << "the diagnostics are untouched";
   }
 
-  // Overwrites element `index` of a dataset of the checkpoint (HDF5 recomputes its checksum).
-  void set_value(const char* dataset, std::size_t index, double value) {
-    const hid_t f = H5Fopen(checkpoint().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-    ASSERT_GE(f, 0);
-    const hid_t set = H5Dopen2(f, dataset, H5P_DEFAULT);
-    const hid_t space = H5Dget_space(set);
-    std::vector<double> v(static_cast<std::size_t>(std::max<hssize_t>(1, H5Sget_simple_extent_npoints(space))));
-    ASSERT_GE(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), 0);
-    v.at(index) = value;
-    ASSERT_GE(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), 0);
-    H5Sclose(space);
-    H5Dclose(set);
-    H5Fclose(f);
+  // Reads the run's checkpoint, lets `change` edit it, and writes it back with capsflow's
+  // own writer: a well-formed, checksummed file whose values are wrong.
+  template <class F>
+  void rewrite(F change) {
+    tree::Tree<2> t({.roots = {1, 1}, .max_level = 4});
+    for (const char* name : {"u.x", "u.y", "p", "pf", "g.x", "g.y"}) (void)t.add_field({.name = name});
+    io::RestoredState state = io::read_checkpoint(checkpoint(), t);
+    change(state.scalars, t, state.extras);
+    io::write_checkpoint(checkpoint(), t, state.scalars, state.extras);
   }
 
   fs::path dir_, case_;
 };
 
 TEST_F(AppRestartErrors, NaNTime) {
-  set_value("/scalars/time", 0, std::numeric_limits<double>::quiet_NaN());
+  rewrite([](io::CheckpointScalars& s, auto&, auto&) { s.time = std::numeric_limits<double>::quiet_NaN(); });
   expect_refused("/scalars/time = nan: must be finite");
 }
 
 TEST_F(AppRestartErrors, HugeNegativeTime) {
-  set_value("/scalars/time", 0, -1e300);
+  rewrite([](io::CheckpointScalars& s, auto&, auto&) { s.time = -1e300; });
   expect_refused("/scalars/time = -1e+300: must be >= 0");
 }
 
 TEST_F(AppRestartErrors, TimeAtTheEnd) {
-  set_value("/scalars/time", 0, 0.04);
+  rewrite([](io::CheckpointScalars& s, auto&, auto&) { s.time = 0.04; });
   expect_refused("is at or past time.t_end = 0.04 of this case: nothing left to run");
 }
 
 TEST_F(AppRestartErrors, NaNVelocity) {
-  set_value("/fields/u.x", 3, std::numeric_limits<double>::quiet_NaN());
+  rewrite([](auto&, tree::Tree<2>& t, auto&) { t.values(0)[t.leaves()[3]] = std::numeric_limits<double>::quiet_NaN(); });
   expect_refused("/fields/u.x[3] = nan: every value must be finite");
 }
 
+// The checkpoint of a capsule case restarted in a case without capsules.
 TEST_F(AppRestartErrors, CapsuleOfAnotherCase) {
-  const hid_t f = H5Fopen(checkpoint().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-  ASSERT_GE(f, 0);
-  const hsize_t shape[2] = {642, 3};
-  const hid_t space = H5Screate_simple(2, shape, nullptr);
-  const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);  // checksummed, as capsflow writes it
-  H5Pset_chunk(dcpl, 2, shape);
-  H5Pset_fletcher32(dcpl);
-  const hid_t set = H5Dcreate2(f, "/extras/capsule_0_positions", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl,
-                               H5P_DEFAULT);
-  H5Pclose(dcpl);
-  const std::vector<double> zeros(642 * 3, 0.0);
-  ASSERT_GE(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, zeros.data()), 0);
-  H5Dclose(set);
-  H5Sclose(space);
-  H5Fclose(f);
+  rewrite([](auto&, auto&, std::vector<io::ExtraArray>& extras) {
+    extras.push_back({.name = "capsule_0_positions", .shape = {642, 3}, .values = std::vector<double>(642 * 3, 0.0)});
+  });
   expect_refused("the checkpoint holds 1 capsule(s), this case has 0");
 }
 
 TEST_F(AppRestartErrors, FlippedByteInsideADataset) {
   // Plant a value that occurs nowhere else in u.x, then flip a bit of its third byte.
-  set_value("/fields/u.x", 5, 0.123456789012345);
+  rewrite([](auto&, tree::Tree<2>& t, auto&) { t.values(0)[t.leaves()[5]] = 0.123456789012345; });
   std::string bytes = slurp(checkpoint());
   const auto pattern = std::bit_cast<std::array<char, 8>>(0.123456789012345);
   const std::size_t at = bytes.find(std::string_view(pattern.data(), 8));

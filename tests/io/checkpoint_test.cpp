@@ -145,11 +145,17 @@ TEST_F(io_checkpoint, MissingDataset) {
   EXPECT_THAT(checkpoint_error(file_, t), HasSubstr("missing dataset /scalars/dt"));
 }
 
-// Rewrites /tree/keys with `change` applied (the file keeps its structure).
+// Rewrites /tree/keys with `change` applied (the file keeps its structure). The file is
+// marked format version 1 (no checksums), so the reader's own leaf-set checks are what
+// catches the damage rather than the checksum.
 template <class F>
 void edit_keys(const std::filesystem::path& file, F change) {
   const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   ASSERT_GE(f, 0);
+  const hid_t version = H5Aopen(f, "format_version", H5P_DEFAULT);
+  const std::int32_t one = 1;
+  ASSERT_GE(H5Awrite(version, H5T_NATIVE_INT32, &one), 0);
+  H5Aclose(version);
   const hid_t set = H5Dopen2(f, "/tree/keys", H5P_DEFAULT);
   const hid_t space = H5Dget_space(set);
   std::vector<std::uint64_t> keys(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
