@@ -95,7 +95,12 @@ class FlowRun {
     const int top = c.adapt.max_level;
     long step = 0;
     if (request_.restart) {
-      const io::RestoredState state = io::read_checkpoint<D>(*request_.restart, tree_);
+      // The checkpoint must fit this case: its time span and its capsules (node counts
+      // as built, P2 meshes included).
+      io::CheckpointExpectations expect{.t_end = c.time.t_end, .capsule_nodes = std::vector<std::size_t>{}};
+      for (int i = 0; capsules_ && i < capsules_->coupling().num_capsules(); ++i)
+        expect.capsule_nodes->push_back(static_cast<std::size_t>(capsules_->coupling().capsule(i).x.cols()));
+      const io::RestoredState state = io::read_checkpoint<D>(*request_.restart, tree_, expect);
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);

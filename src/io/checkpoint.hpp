@@ -11,6 +11,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -35,6 +37,16 @@ struct ExtraArray {
   bool operator==(const ExtraArray&) const = default;
 };
 
+// What the restarting run expects of a checkpoint beyond its tree and fields (the case's
+// end time, its capsules); read_checkpoint checks the file against it before it changes
+// anything.
+struct CheckpointExpectations {
+  double t_end = std::numeric_limits<double>::infinity();  // time.t_end of the case
+  // The node count of each capsule, in order, when the run knows its capsules (a case
+  // without capsules: empty); unset, the capsule extras are not checked.
+  std::optional<std::vector<std::size_t>> capsule_nodes;
+};
+
 struct RestoredState {
   CheckpointScalars scalars;
   std::vector<ExtraArray> extras;  // in name order
@@ -48,19 +60,26 @@ void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tr
                       const CheckpointScalars& scalars, std::span<const ExtraArray> extras = {});
 
 // Restores `tree` (which must still be its bare roots, with the fields registered) from
-// the checkpoint. Throws CheckpointError, one line naming the file and what is wrong: not a
-// readable HDF5 file (missing, truncated, corrupt), not a capsflow checkpoint, a missing or
-// malformed dataset, another dimension, other roots / root size / origin / periodicity,
-// leaves deeper than the tree's max_level, other field names. Throws std::invalid_argument
+// the checkpoint. The whole file is checked before the tree changes; each failure throws
+// CheckpointError, one line naming the file and what is wrong: not a readable HDF5 file
+// (missing, truncated, corrupt), a dataset that fails its checksum, not a capsflow
+// checkpoint, a missing or malformed dataset, another dimension, other roots / root size /
+// origin / periodicity, leaves deeper than the tree's max_level, a leaf set that is not a
+// balanced tree on these roots, other field names, a time that is not finite or outside
+// [0, expect.t_end), a negative step, a dt that is not finite and > 0, a non-finite field
+// or extra value, other capsules than expect.capsule_nodes. Throws std::invalid_argument
 // if `tree` has been refined already.
 template <int D>
-[[nodiscard]] RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& tree);
+[[nodiscard]] RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& tree,
+                                            const CheckpointExpectations& expect = {});
 
 extern template void write_checkpoint<2>(const std::filesystem::path&, const tree::Tree<2>&,
                                          const CheckpointScalars&, std::span<const ExtraArray>);
 extern template void write_checkpoint<3>(const std::filesystem::path&, const tree::Tree<3>&,
                                          const CheckpointScalars&, std::span<const ExtraArray>);
-extern template RestoredState read_checkpoint<2>(const std::filesystem::path&, tree::Tree<2>&);
-extern template RestoredState read_checkpoint<3>(const std::filesystem::path&, tree::Tree<3>&);
+extern template RestoredState read_checkpoint<2>(const std::filesystem::path&, tree::Tree<2>&,
+                                                 const CheckpointExpectations&);
+extern template RestoredState read_checkpoint<3>(const std::filesystem::path&, tree::Tree<3>&,
+                                                 const CheckpointExpectations&);
 
 }  // namespace capsflow::io

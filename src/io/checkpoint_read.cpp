@@ -1,5 +1,6 @@
-// Checkpoint reader: check the file against the run, rebuild the leaf set by refining from
-// the roots, restore the leaf values. The layout is docs/checkpoint-format.md.
+// Checkpoint reader: check the whole file against the run (checksums, shapes, the leaf
+// set, finite values, time span, capsules), then rebuild the leaf set by refining from the
+// roots and restore the leaf values. The layout is docs/checkpoint-format.md.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -7,6 +8,7 @@
 #include <stdexcept>
 
 #include "io/checkpoint.hpp"
+#include "io/checkpoint_values.hpp"
 #include "io/h5_file.hpp"
 
 namespace capsflow::io {
@@ -144,6 +146,19 @@ void check_field_names(const H5Io& io, hid_t fields, const tree::Tree<D>& tree) 
                         fmt::join(in_file, ", "), fmt::join(in_run, ", ")));
 }
 
+// Each field: one finite value per leaf (read once here, again when restoring, so that
+// only one field is in memory at a time).
+template <int D>
+void check_fields(const H5Io& io, hid_t fields, const tree::Tree<D>& tree, const LeafSet& set) {
+  for (tree::FieldId f = 0; f < tree.num_fields(); ++f) {
+    const std::string path = "/fields/" + tree.field_spec(f).name;
+    const auto a = io.read<double>(fields, tree.field_spec(f).name, H5T_NATIVE_DOUBLE, path);
+    if (a.values.size() != set.size)
+      io.fail(fmt::format("{} holds {} values for {} leaves", path, a.values.size(), set.size));
+    detail::check_finite(io, path, a.values);
+  }
+}
+
 template <int D>
 void restore_fields(const H5Io& io, hid_t fields, tree::Tree<D>& tree, const LeafSet& set) {
   // File position of each leaf of the rebuilt tree: match keys level by level.
@@ -170,24 +185,28 @@ void restore_fields(const H5Io& io, hid_t fields, tree::Tree<D>& tree, const Lea
 }  // namespace
 
 template <int D>
-RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& tree) {
+RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& tree,
+                              const CheckpointExpectations& expect) {
   if (tree.depth() != 0)
     throw std::invalid_argument("read_checkpoint: the tree must be its bare roots (build it from the case)");
   const detail::QuietErrors quiet;
-  const H5Io io(path.string(), H5Io::Mode::read);
+  H5Io io(path.string(), H5Io::Mode::read);
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) io.fail("no such checkpoint file");
   const Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!file.valid()) io.fail("not a readable HDF5 file (truncated or corrupt?)");
+  if (!file.valid())
+    io.fail(detail::error_stack_mentions_checksum() ? "not a readable HDF5 file (checksum mismatch: corrupt)"
+                                                    : "not a readable HDF5 file (truncated or corrupt?)");
   const hid_t root = file.get();
 
   if (H5Aexists(root, "format") <= 0 || io.read_string_attribute(root, "format", "/@format") != detail::kCheckpointFormat)
     io.fail("not a capsflow checkpoint (no /@format = \"capsflow checkpoint\")");
   const auto version = scalar(io.read_attribute<std::int32_t>(root, "format_version", H5T_NATIVE_INT32, "/@format_version"),
                               io, "/@format_version");
-  if (version != detail::kCheckpointVersion)
-    io.fail(fmt::format("checkpoint format version {}, this capsflow reads version {}", version,
-                        detail::kCheckpointVersion));
+  if (version < detail::kOldestCheckpointVersion || version > detail::kCheckpointVersion)
+    io.fail(fmt::format("checkpoint format version {}, this capsflow reads versions {} to {}", version,
+                        detail::kOldestCheckpointVersion, detail::kCheckpointVersion));
+  io.require_checksums(version >= 2);  // version 1 predates them
   const auto dim = scalar(io.read_attribute<std::int32_t>(root, "dimension", H5T_NATIVE_INT32, "/@dimension"),
                           io, "/@dimension");
   if (dim != D) io.fail(fmt::format("written by a {}D run, this run is {}D", dim, D));
@@ -201,25 +220,33 @@ RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& 
   state.scalars.time = scalar(io.read<double>(s.get(), "time", H5T_NATIVE_DOUBLE, "/scalars/time"), io, "/scalars/time");
   state.scalars.step = scalar(io.read<std::int64_t>(s.get(), "step", H5T_NATIVE_INT64, "/scalars/step"), io, "/scalars/step");
   state.scalars.dt = scalar(io.read<double>(s.get(), "dt", H5T_NATIVE_DOUBLE, "/scalars/dt"), io, "/scalars/dt");
+  detail::check_scalars(io, state.scalars, expect);
   const Handle e = io.group(root, "extras", false);
   for (const std::string& name : io.members(e.get(), "/extras")) {
     auto a = io.read<double>(e.get(), name, H5T_NATIVE_DOUBLE, "/extras/" + name);
+    detail::check_finite(io, "/extras/" + name, a.values);
     state.extras.push_back({.name = name,
                             .shape = std::vector<std::size_t>(a.shape.begin(), a.shape.end()),
                             .values = std::move(a.values)});
   }
+  detail::check_capsules(io, state.extras, expect);
 
   const Handle f = io.group(root, "fields", false);
   check_field_names(io, f.get(), tree);
+  check_fields(io, f.get(), tree, set);
 
-  // Only now touch the tree: the checks that remain (the leaf set rebuilds, each field has
-  // one value per leaf) fail only for a corrupt file.
+  // The whole file is checked before the tree changes: rebuild the leaf set on a scratch
+  // forest first (a corrupt set fails there), then on the run's tree.
+  tree::Tree<D> scratch(tree.options());
+  rebuild(io, scratch, set);
   rebuild(io, tree, set);
   restore_fields(io, f.get(), tree, set);
   return state;
 }
 
-template RestoredState read_checkpoint<2>(const std::filesystem::path&, tree::Tree<2>&);
-template RestoredState read_checkpoint<3>(const std::filesystem::path&, tree::Tree<3>&);
+template RestoredState read_checkpoint<2>(const std::filesystem::path&, tree::Tree<2>&,
+                                          const CheckpointExpectations&);
+template RestoredState read_checkpoint<3>(const std::filesystem::path&, tree::Tree<3>&,
+                                          const CheckpointExpectations&);
 
 }  // namespace capsflow::io

@@ -56,7 +56,8 @@ void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tr
   atomic_write(path, [&](const std::filesystem::path& tmp) {
     const detail::QuietErrors quiet;
     const detail::H5Io io(path.string(), detail::H5Io::Mode::write);
-    const detail::Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    const detail::Handle fapl = detail::checksummed_file_access();
+    const detail::Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
     if (!file.valid()) io.fail("cannot create the file");
     const hid_t root = file.get();
     io.string_attribute(root, "format", detail::kCheckpointFormat);

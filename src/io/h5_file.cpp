@@ -2,6 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #include "io/errors.hpp"
@@ -31,13 +35,56 @@ Handle dataspace(const std::vector<hsize_t>& shape) {
 }
 }  // namespace
 
+namespace {
+// FNV-1a (64 bits) over the values' little-endian bytes, row-major: each dataset's own
+// checksum, kept in its (checksummed) object header. Fletcher32 alone is fooled by a chunk
+// zeroed together with its checksum (all-zero data sums to zero); this one is not.
+std::uint64_t value_checksum(const void* data, std::size_t values, std::size_t value_bytes) {
+  std::uint64_t h = 14695981039346656037ull;
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t v = 0; v < values; ++v)
+    for (std::size_t b = 0; b < value_bytes; ++b) {
+      const std::size_t at = std::endian::native == std::endian::little ? b : value_bytes - 1 - b;
+      h = (h ^ bytes[v * value_bytes + at]) * 1099511628211ull;
+    }
+  return h;
+}
+
+constexpr char kChecksumAttribute[] = "checksum";
+
+// Chunks of at most 64 Ki values (512 KiB of doubles): each carries its own checksum, and
+// one fits HDF5's default 1 MiB chunk cache.
+std::vector<hsize_t> chunk_shape(const std::vector<hsize_t>& shape) {
+  constexpr hsize_t kMaxValues = hsize_t{1} << 16;
+  std::vector<hsize_t> chunk = shape;
+  hsize_t rest = 1;
+  for (std::size_t i = 1; i < chunk.size(); ++i) rest *= chunk[i];
+  chunk[0] = std::clamp<hsize_t>(kMaxValues / std::max<hsize_t>(rest, 1), 1, chunk[0]);
+  return chunk;
+}
+}  // namespace
+
 void H5Io::write(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
                  const void* data) const {
   const Handle space = dataspace(shape);
-  const Handle set(H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+  const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  hsize_t n = 1;
+  for (const hsize_t d : shape) n *= d;
+  bool ok = dcpl.valid();
+  if (shape.empty()) {
+    ok = ok && H5Pset_layout(dcpl.get(), H5D_COMPACT) >= 0;
+  } else if (n > 0) {  // (an empty array has no values to protect)
+    const std::vector<hsize_t> chunk = chunk_shape(shape);
+    ok = ok && H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()) >= 0 &&
+         H5Pset_fletcher32(dcpl.get()) >= 0;
+  }
+  const Handle set(ok ? H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT)
+                      : H5I_INVALID_HID,
                    H5Dclose);
   if (!set.valid() || H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
     fail(fmt::format("cannot write dataset {}", name));
+  const std::uint64_t sum = value_checksum(data, static_cast<std::size_t>(n), H5Tget_size(type));
+  attribute(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, {}, &sum);
 }
 
 void H5Io::attribute(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
@@ -58,19 +105,53 @@ void H5Io::string_attribute(hid_t loc, const std::string& name, const std::strin
 namespace {
 
 // Takes ownership of a dataspace; sizes `a` (shape and values) from it. False if the
-// dataspace is unreadable.
+// dataspace is unreadable or claims more values than `limit` (a corrupt file must not make
+// us allocate what it cannot hold).
 template <class T>
-bool sized_from(hid_t space_id, Array<T>& a) {
+bool sized_from(hid_t space_id, Array<T>& a, hsize_t limit) {
   const Handle space(space_id, H5Sclose);
   if (!space.valid()) return false;
   const int rank = H5Sget_simple_extent_ndims(space.get());
   if (rank < 0) return false;
   a.shape.resize(static_cast<std::size_t>(rank));
-  H5Sget_simple_extent_dims(space.get(), a.shape.data(), nullptr);
-  std::size_t n = 1;
-  for (const hsize_t d : a.shape) n *= d;
-  a.values.resize(n);
+  if (H5Sget_simple_extent_dims(space.get(), a.shape.data(), nullptr) < 0) return false;
+  hsize_t n = 1;
+  for (const hsize_t d : a.shape) {
+    if (d != 0 && n > limit / d) return false;
+    n *= d;
+  }
+  if (n > limit) return false;
+  a.values.resize(static_cast<std::size_t>(n));
   return true;
+}
+
+// The size of the file holding `loc`, in bytes (0 if unknown).
+hsize_t file_bytes(hid_t loc) {
+  const Handle file(H5Iget_file_id(loc), H5Fclose);
+  hsize_t size = 0;
+  if (!file.valid() || H5Fget_filesize(file.get(), &size) < 0) return 0;
+  return size;
+}
+
+// The most values of `type_id` (owned) the file can hold: each takes its bytes on disk.
+hsize_t value_limit(hid_t loc, hid_t type_id) {
+  const Handle type(type_id, H5Tclose);
+  const std::size_t bytes = type.valid() ? H5Tget_size(type.get()) : 0;
+  return file_bytes(loc) / std::max<std::size_t>(bytes, 1);
+}
+
+bool has_fletcher32(hid_t set) {
+  const Handle dcpl(H5Dget_create_plist(set), H5Pclose);
+  unsigned flags = 0;
+  std::size_t nelmts = 0;
+  unsigned config = 0;
+  return dcpl.valid() &&
+         H5Pget_filter_by_id2(dcpl.get(), H5Z_FILTER_FLETCHER32, &flags, &nelmts, nullptr, 0, nullptr, &config) >= 0;
+}
+
+bool is_compact(hid_t set) {
+  const Handle dcpl(H5Dget_create_plist(set), H5Pclose);
+  return dcpl.valid() && H5Pget_layout(dcpl.get()) == H5D_COMPACT;
 }
 
 }  // namespace
@@ -79,11 +160,25 @@ template <class T>
 Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::string& path) const {
   if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
   const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
-  if (!set.valid()) fail(fmt::format("{} is not a readable dataset", path));
+  if (!set.valid())
+    fail(fmt::format("{} is not a readable dataset{}", path,
+                     error_stack_mentions_checksum() ? " (checksum mismatch: the file is corrupt)" : ""));
   Array<T> a;
-  if (!sized_from(H5Dget_space(set.get()), a)) fail(fmt::format("{}: unreadable shape", path));
+  if (!sized_from(H5Dget_space(set.get()), a, value_limit(loc, H5Dget_type(set.get()))))
+    fail(fmt::format("{}: unreadable shape, or more values than the file holds (corrupt?)", path));
+  if (require_checksums_ && !(a.shape.empty() ? is_compact(set.get()) : a.values.empty() || has_fletcher32(set.get())))
+    fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
   if (!a.values.empty() && H5Dread(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()) < 0)
-    fail(fmt::format("cannot read dataset {} (corrupt file?)", path));
+    fail(error_stack_mentions_checksum()
+             ? fmt::format("dataset {} fails its checksum: the file is corrupt", path)
+             : fmt::format("cannot read dataset {} (corrupt file?)", path));
+  if (require_checksums_) {
+    if (H5Aexists(set.get(), kChecksumAttribute) <= 0)
+      fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
+    const auto sum = read_attribute<std::uint64_t>(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, path + "@checksum");
+    if (sum.values.size() != 1 || sum.values[0] != value_checksum(a.values.data(), a.values.size(), sizeof(T)))
+      fail(fmt::format("dataset {} fails its checksum: the file is corrupt", path));
+  }
   return a;
 }
 
@@ -92,7 +187,7 @@ Array<T> H5Io::read_attribute(hid_t loc, const std::string& name, hid_t type, co
   if (H5Aexists(loc, name.c_str()) <= 0) fail(fmt::format("missing attribute {}", path));
   const Handle attr(H5Aopen(loc, name.c_str(), H5P_DEFAULT), H5Aclose);
   Array<T> a;
-  if (!attr.valid() || !sized_from(H5Aget_space(attr.get()), a))
+  if (!attr.valid() || !sized_from(H5Aget_space(attr.get()), a, value_limit(loc, H5Aget_type(attr.get()))))
     fail(fmt::format("{} is not a readable attribute", path));
   if (H5Aread(attr.get(), type, a.values.data()) < 0) fail(fmt::format("cannot read attribute {}", path));
   return a;
@@ -104,6 +199,7 @@ std::string H5Io::read_string_attribute(hid_t loc, const std::string& name, cons
   const Handle type(H5Aget_type(attr.get()), H5Tclose);
   if (!attr.valid() || !type.valid() || H5Tget_class(type.get()) != H5T_STRING || H5Tis_variable_str(type.get()) > 0)
     fail(fmt::format("{} is not a fixed-length string", path));
+  if (H5Tget_size(type.get()) > 4096) fail(fmt::format("{} is implausibly long (corrupt?)", path));
   std::string s(H5Tget_size(type.get()), '\0');
   if (H5Aread(attr.get(), type.get(), s.data()) < 0) fail(fmt::format("cannot read attribute {}", path));
   s.erase(s.find_last_not_of('\0') + 1);
@@ -125,10 +221,29 @@ std::vector<std::string> H5Io::members(hid_t group, const std::string& path) con
   return names;
 }
 
+Handle checksummed_file_access() {
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (fapl.valid()) H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_LATEST);
+  return fapl;
+}
+
+bool error_stack_mentions_checksum() {
+  bool found = false;
+  const auto visit = [](unsigned, const H5E_error2_t* e, void* data) -> herr_t {
+    if (e->desc && (std::strstr(e->desc, "checksum") || std::strstr(e->desc, "Fletcher32")))
+      *static_cast<bool*>(data) = true;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, visit, &found);
+  return found;
+}
+
 template Array<double> H5Io::read<double>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<std::int64_t> H5Io::read<std::int64_t>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<std::uint64_t> H5Io::read<std::uint64_t>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<double> H5Io::read_attribute<double>(hid_t, const std::string&, hid_t, const std::string&) const;
+template Array<std::uint64_t> H5Io::read_attribute<std::uint64_t>(hid_t, const std::string&, hid_t,
+                                                                  const std::string&) const;
 template Array<std::int32_t> H5Io::read_attribute<std::int32_t>(hid_t, const std::string&, hid_t,
                                                                 const std::string&) const;
 

@@ -12,7 +12,9 @@
 namespace capsflow::io::detail {
 
 inline constexpr char kCheckpointFormat[] = "capsflow checkpoint";
-inline constexpr int kCheckpointVersion = 1;
+// Version 2 added checksums (docs/checkpoint-format.md); version 1 files still read.
+inline constexpr int kCheckpointVersion = 2;
+inline constexpr int kOldestCheckpointVersion = 1;
 
 class Handle {
  public:
@@ -37,10 +39,16 @@ class Handle {
   herr_t (*close_)(hid_t) = nullptr;
 };
 
-// Silences HDF5's automatic error printing for the lifetime of the object.
+// Silences HDF5's automatic error printing for the lifetime of the object. Every HDF5 use
+// of capsflow starts with one, so it also asks HDF5 (before the library initialises) not to
+// shut down at exit: after reading a corrupt file HDF5 1.10 can keep internal blocks that
+// make its exit-time shutdown print "infinite loop closing library" to stderr, a second
+// line after our one-line error. Files are closed explicitly, so nothing is lost.
 class QuietErrors {
  public:
   QuietErrors() {
+    static const bool no_shutdown_at_exit = H5dont_atexit() >= 0;
+    (void)no_shutdown_at_exit;
     H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   }
@@ -70,13 +78,19 @@ class H5Io {
   [[noreturn]] void fail(const std::string& what) const;
 
   Handle group(hid_t loc, const std::string& name, bool create) const;
+  // Datasets are written checksummed: arrays chunked with the Fletcher32 filter, scalars
+  // compact (their value lives in the object header, which the file format checksums).
   void write(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
              const void* data) const;
   void attribute(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
                  const void* data) const;
   void string_attribute(hid_t loc, const std::string& name, const std::string& value) const;
 
-  // `path` names the object in messages ("/tree/keys").
+  // Reading: refuse datasets written without a checksum (format version 2 and later).
+  void require_checksums(bool on) { require_checksums_ = on; }
+
+  // `path` names the object in messages ("/tree/keys"). A read that fails its checksum
+  // says so.
   template <class T>
   Array<T> read(hid_t loc, const std::string& name, hid_t type, const std::string& path) const;
   template <class T>
@@ -88,5 +102,13 @@ class H5Io {
  private:
   std::string file_;
   Mode mode_;
+  bool require_checksums_ = false;
 };
+
+// The property list that makes HDF5 checksum all of a file's metadata (superblock v2+,
+// object headers v2, checksummed chunk indexes): format features of HDF5 1.10.
+Handle checksummed_file_access();
+
+// True when HDF5's current error stack reports a checksum failure (data or metadata).
+bool error_stack_mentions_checksum();
 }  // namespace capsflow::io::detail

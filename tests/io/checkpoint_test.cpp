@@ -8,6 +8,8 @@
 #include <bit>
 #include <cmath>
 #include <fstream>
+#include <limits>
+#include <span>
 
 #include "io/checkpoint.hpp"
 #include "scratch_dir.hpp"
@@ -60,9 +62,10 @@ const std::vector<ExtraArray> kExtras{
     {.name = "reference_volume", .shape = {}, .values = {4.18879020478639}}};
 const CheckpointScalars kScalars{.time = 1.0 / 3.0, .step = 123456789012, .dt = 1e-3 / 7};
 
-std::string checkpoint_error(const std::filesystem::path& path, tree::Tree<3>& t) {
+std::string checkpoint_error(const std::filesystem::path& path, tree::Tree<3>& t,
+                             const CheckpointExpectations& expect = {}) {
   try {
-    (void)read_checkpoint(path, t);
+    (void)read_checkpoint(path, t, expect);
   } catch (const CheckpointError& e) {
     EXPECT_THAT(std::string(e.what()), ::testing::Not(HasSubstr("\n")));
     EXPECT_THAT(std::string(e.what()), HasSubstr(path.string() + ": "));
@@ -142,11 +145,17 @@ TEST_F(io_checkpoint, MissingDataset) {
   EXPECT_THAT(checkpoint_error(file_, t), HasSubstr("missing dataset /scalars/dt"));
 }
 
-// Rewrites /tree/keys with `change` applied (the file keeps its structure).
+// Rewrites /tree/keys with `change` applied (the file keeps its structure). The file is
+// marked format version 1 (no checksums), so the reader's own leaf-set checks are what
+// catches the damage rather than the checksum.
 template <class F>
 void edit_keys(const std::filesystem::path& file, F change) {
   const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   ASSERT_GE(f, 0);
+  const hid_t version = H5Aopen(f, "format_version", H5P_DEFAULT);
+  const std::int32_t one = 1;
+  ASSERT_GE(H5Awrite(version, H5T_NATIVE_INT32, &one), 0);
+  H5Aclose(version);
   const hid_t set = H5Dopen2(f, "/tree/keys", H5P_DEFAULT);
   const hid_t space = H5Dget_space(set);
   std::vector<std::uint64_t> keys(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
@@ -166,6 +175,7 @@ TEST_F(io_checkpoint, CorruptLeafSet) {
   edit_keys(file_, [](std::vector<std::uint64_t>& k) { k.back() = k[k.size() - 2]; });  // a leaf twice
   tree::Tree<3> t2 = run_tree(channel(), {"u", "pressure"});
   EXPECT_THAT(checkpoint_error(file_, t2), HasSubstr("do not form a balanced tree on these roots"));
+  EXPECT_EQ(t2.depth(), 0) << "the tree is untouched";
 }
 
 TEST_F(io_checkpoint, MismatchedRun) {
@@ -195,6 +205,94 @@ TEST_F(io_checkpoint, MismatchedRun) {
   } catch (const CheckpointError& e) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("written by a 3D run, this run is 2D"));
   }
+}
+
+// Flips one bit of the first stored copy of `value` in the file (a value inside a
+// dataset: the test picks one that occurs nowhere else).
+void flip_bit_of(const std::filesystem::path& file, double value) {
+  std::ifstream in(file, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  const auto bits = std::bit_cast<std::array<char, 8>>(value);
+  const std::size_t at = bytes.find(std::string_view(bits.data(), bits.size()));
+  ASSERT_NE(at, std::string::npos) << "value not found in " << file;
+  bytes[at + 3] = static_cast<char>(bytes[at + 3] ^ 0x10);
+  std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+TEST_F(io_checkpoint, FlippedBitInAFieldFailsItsChecksum) {
+  const tree::Index leaf = saved_.leaves()[saved_.leaves().size() / 2];
+  flip_bit_of(file_, saved_.values(0)[leaf]);  // pressure
+  tree::Tree<3> t = run_tree(channel(), {"u", "pressure"});
+  EXPECT_THAT(checkpoint_error(file_, t), HasSubstr("dataset /fields/pressure fails its checksum"));
+  EXPECT_EQ(t.depth(), 0) << "the tree is untouched";
+}
+
+TEST_F(io_checkpoint, FlippedBitInAScalarFailsItsChecksum) {
+  flip_bit_of(file_, kScalars.time);
+  tree::Tree<3> t = run_tree(channel(), {"u", "pressure"});
+  EXPECT_THAT(checkpoint_error(file_, t), HasSubstr("checksum"));
+  EXPECT_EQ(t.depth(), 0) << "the tree is untouched";
+}
+
+// Format version 1 (before checksums) still reads.
+TEST_F(io_checkpoint, VersionOneStillReads) {
+  {
+    const hid_t f = H5Fopen(file_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t a = H5Aopen(f, "format_version", H5P_DEFAULT);
+    const std::int32_t one = 1;
+    ASSERT_GE(H5Awrite(a, H5T_NATIVE_INT32, &one), 0);
+    H5Aclose(a);
+    H5Fclose(f);
+  }
+  tree::Tree<3> t = run_tree(channel(), {"u", "pressure"});
+  EXPECT_EQ(read_checkpoint(file_, t).scalars, kScalars);
+}
+
+// A checkpoint whose values a run cannot continue from is refused before the tree changes.
+class io_checkpoint_values : public io_checkpoint {
+ protected:
+  std::string error_for(const CheckpointScalars& s, const CheckpointExpectations& expect = {},
+                        std::span<const ExtraArray> extras = kExtras) {
+    write_checkpoint(file_, saved_, s, extras);
+    tree::Tree<3> t = run_tree(channel(), {"u", "pressure"});
+    std::string message = checkpoint_error(file_, t, expect);
+    EXPECT_EQ(t.depth(), 0) << "the tree is untouched";
+    return message;
+  }
+};
+
+TEST_F(io_checkpoint_values, TimeMustBeFiniteAndWithinTheCase) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(error_for({.time = nan, .step = 1, .dt = 0.1}), HasSubstr("/scalars/time = nan: must be finite"));
+  EXPECT_THAT(error_for({.time = -1e300, .step = 1, .dt = 0.1}), HasSubstr("/scalars/time = -1e+300: must be >= 0"));
+  EXPECT_THAT(error_for({.time = 2.0, .step = 1, .dt = 0.1}, {.t_end = 2.0}),
+              HasSubstr("/scalars/time = 2 is at or past time.t_end = 2 of this case: nothing left to run"));
+  EXPECT_THAT(error_for({.time = 1.0, .step = -5, .dt = 0.1}), HasSubstr("/scalars/step = -5: must be >= 0"));
+  EXPECT_THAT(error_for({.time = 1.0, .step = 5, .dt = 0.0}), HasSubstr("/scalars/dt = 0: must be finite and > 0"));
+}
+
+TEST_F(io_checkpoint_values, FieldAndExtraValuesMustBeFinite) {
+  saved_.values(1)[saved_.leaves()[7]] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(error_for(kScalars), HasSubstr("/fields/u[7] = nan: every value must be finite"));
+  saved_.values(1)[saved_.leaves()[7]] = 0.0;
+  std::vector<ExtraArray> extras = kExtras;
+  extras[0].values[4] = -std::numeric_limits<double>::infinity();
+  EXPECT_THAT(error_for(kScalars, {}, extras), HasSubstr("/extras/membrane_nodes[4] = -inf"));
+}
+
+TEST_F(io_checkpoint_values, CapsulesMustMatchTheCase) {
+  const std::vector<ExtraArray> one{{.name = "capsule_0_positions", .shape = {2, 3}, .values = {1, 2, 3, 4, 5, 6}}};
+  using Nodes = std::vector<std::size_t>;
+  EXPECT_THAT(error_for(kScalars, {.capsule_nodes = Nodes{}}, one),
+              HasSubstr("the checkpoint holds 1 capsule(s), this case has 0"));
+  EXPECT_THAT(error_for(kScalars, {.capsule_nodes = Nodes{2, 2}}, one),
+              HasSubstr("the checkpoint holds 1 capsule(s), this case has 2"));
+  EXPECT_THAT(error_for(kScalars, {.capsule_nodes = Nodes{642}}, one),
+              HasSubstr("/extras/capsule_0_positions has shape [2, 3], capsule[0] of this case has 642 nodes"));
+  tree::Tree<3> t = run_tree(channel(), {"u", "pressure"});
+  EXPECT_EQ(read_checkpoint(file_, t, {.capsule_nodes = Nodes{2}}).extras, one);
 }
 
 TEST_F(io_checkpoint, BadNamesAreRejectedBeforeWriting) {
