@@ -14,6 +14,7 @@
 #include "app/progress.hpp"
 #include "app/run_case.hpp"
 #include "io/errors.hpp"
+#include "parallel/comm.hpp"
 
 namespace {
 
@@ -27,6 +28,18 @@ void report(const std::string& message) {
 
 int main(int argc, char** argv) {
   using capsflow::app::RunRequest;
+  // MPI only when a launcher started us (parallel/comm.hpp); a plain run makes no MPI call.
+  capsflow::parallel::MpiSession mpi(argc, argv);
+  if (const auto world = capsflow::parallel::Comm::world(); world.size() > 1) {
+    // Refused on every rank (exit 2, before any work), said once: N copies of a serial run
+    // would otherwise write over each other's output.
+    if (world.is_root())
+      std::fprintf(stderr,
+                   "capsflow: %d MPI ranks: this version runs on one rank; the distributed flow solver is in "
+                   "progress (docs/parallel.md). Run without mpirun, with OMP_NUM_THREADS for the cores\n",
+                   world.size());
+    return 2;
+  }
   CLI::App cli{"capsflow: elastic capsules in confined flows (finite volumes on an adaptive octree, "
                "finite-element membranes, immersed boundaries)"};
   cli.set_version_flag("--version", CAPSFLOW_VERSION);
