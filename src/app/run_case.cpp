@@ -105,6 +105,7 @@ class FlowRun {
     else if (c.output.vtu) snapshot(series, step);
 
     const auto start = std::chrono::steady_clock::now();
+    const long first_step = step;  // a restart times only its own steps
     const double t_end = c.time.t_end;
     while (ns_.time() < t_end * (1 - 1e-12)) {
       ns_.limit_dt(t_end - ns_.time());
@@ -147,7 +148,7 @@ class FlowRun {
       capsules_->write_final(out_);
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
-        const double n = double(std::max<long>(1, capsules_->coupling().steps()));
+        const double n = double(std::max<long>(1, step - first_step));
         std::fprintf(stderr, "time per step: membrane %.2f ms, spreading %.2f ms, fluid %.2f ms, interpolation %.2f ms, adapt %.2f ms\n",
                      1e3 * s.membrane / n, 1e3 * s.spreading / n, 1e3 * s.fluid / n, 1e3 * s.interpolation / n,
                      1e3 * adaptation_.seconds() / n);

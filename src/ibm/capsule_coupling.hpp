@@ -113,6 +113,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // The membrane time scale mu dx / Gs (= Ca dx in the seed's units), smallest over the
   // capsules: stable steps are a modest multiple of it at most.
   [[nodiscard]] double membrane_time_scale() const;
+
  private:
   void compute_forces(int step);
   void spread_forces(int step);
