@@ -17,7 +17,8 @@ Adaptation<D>::Adaptation(NavierStokes<D>& ns, AdaptationOptions options) : ns_(
   if (options_.interval < 1)
     throw std::invalid_argument(fmt::format("adaptation: interval {} must be >= 1", options_.interval));
   if (options_.max_interval < 0)
-    throw std::invalid_argument(fmt::format("adaptation: max_interval {} must be >= 0", options_.max_interval));
+    throw std::invalid_argument(
+        fmt::format("adaptation: max_interval {} must be >= 0", options_.max_interval));
   if (options_.min_level < 0 || options_.min_level > top)
     throw std::invalid_argument(
         fmt::format("adaptation: min_level {} is outside [0, max_level {}]", options_.min_level, top));

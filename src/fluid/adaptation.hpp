@@ -22,13 +22,13 @@
 namespace capsflow::fluid {
 
 struct AdaptationOptions {
-  bool enabled = true;               // false: uniform at the tree's max level, never adapted
-  int interval = 1;                  // steps between adaptations
-  int max_interval = 0;              // > interval: the bodies may defer an adaptation up to this
-  double velocity_tolerance = 1e-2;  // wavelet tolerance on each velocity component
+  bool enabled = true;                       // false: uniform at the tree's max level, never adapted
+  int interval = 1;                          // steps between adaptations
+  int max_interval = 0;                      // > interval: the bodies may defer an adaptation up to this
+  double velocity_tolerance = 1e-2;          // wavelet tolerance on each velocity component
   double velocity_tolerance_relative = 0.0;  // NavierStokes::velocity_tolerance
   int min_level = 0;
-  int wall_level = 0;                // level forced on leaves touching a wall (0: none)
+  int wall_level = 0;  // level forced on leaves touching a wall (0: none)
 };
 
 // What bodies immersed in the flow add to the adaptation (ibm::CapsuleCoupling: membrane

@@ -6,11 +6,13 @@ namespace capsflow::fluid {
 bool is_wall(SideKind kind) {
   switch (kind) {  // no default: -Wswitch flags a new kind left undecided
     case SideKind::wall:
-    case SideKind::moving_wall: return true;
+    case SideKind::moving_wall:
+      return true;
     case SideKind::inflow:
     case SideKind::outflow:
     case SideKind::periodic:
-    case SideKind::prescribed: return false;
+    case SideKind::prescribed:
+      return false;
   }
   return false;
 }
@@ -28,7 +30,9 @@ bool touches_wall(const tree::TreeOptions<D>& tree, const std::array<SideFlow<D>
   return false;
 }
 
-template bool touches_wall<2>(const tree::TreeOptions<2>&, const std::array<SideFlow<2>, 4>&, const tree::Box<2>&);
-template bool touches_wall<3>(const tree::TreeOptions<3>&, const std::array<SideFlow<3>, 6>&, const tree::Box<3>&);
+template bool touches_wall<2>(const tree::TreeOptions<2>&, const std::array<SideFlow<2>, 4>&,
+                              const tree::Box<2>&);
+template bool touches_wall<3>(const tree::TreeOptions<3>&, const std::array<SideFlow<3>, 6>&,
+                              const tree::Box<3>&);
 
 }  // namespace capsflow::fluid

@@ -54,8 +54,8 @@ TEST(Adaptation, InitialRefinementForcesWallsNotInflowOrOutflow) {
   }
   EXPECT_GT(on_walls, 0);
   EXPECT_GT(on_ends, 0);
-  EXPECT_EQ(a.required_level({{0.0, 0.5}, {1.0 / 64, 0.5 + 1.0 / 64}}), 0);    // inflow
-  EXPECT_EQ(a.required_level({{1.0, 0.0}, {1.0 + 1.0 / 64, 1.0 / 64}}), 5);    // wall y_lo
+  EXPECT_EQ(a.required_level({{0.0, 0.5}, {1.0 / 64, 0.5 + 1.0 / 64}}), 0);  // inflow
+  EXPECT_EQ(a.required_level({{1.0, 0.0}, {1.0 + 1.0 / 64, 1.0 / 64}}), 5);  // wall y_lo
 }
 
 // Interval 3: the stage adapts after steps 3, 6, 9, ... of the run, whichever step it
