@@ -64,13 +64,9 @@ std::string numbered(const char* stem, long step, int capsule) {
 }  // namespace
 
 CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
-  const io::AdaptConfig& a = c.adapt;
-  coupling_ = std::make_unique<ibm::CapsuleCoupling>(
-      ns, ibm::CouplingAdapt{.enabled = a.enabled, .interval = a.interval, .max_interval = a.max_interval,
-                             .velocity_tolerance = a.velocity_tolerance,
-                             .velocity_tolerance_relative = a.velocity_tolerance_relative,
-                             .min_level = a.min_level, .wall_level = a.wall_level,
-                             .margin = std::max(0, a.membrane_band - 2)});
+  // membrane_band counts the cells beyond the node's cell; the coupling's margin those beyond
+  // the kernels' half support (2 cells for the widest kernels).
+  coupling_ = std::make_unique<ibm::CapsuleCoupling>(ns, std::max(0, c.adapt.membrane_band - 2));
   for (std::size_t i = 0; i < c.capsules.size(); ++i) {
     const io::CapsuleConfig& k = c.capsules[i];
     const int index = static_cast<int>(i);

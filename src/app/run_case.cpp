@@ -17,6 +17,7 @@
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
 #include "app/progress.hpp"
+#include "fluid/adaptation.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "io/atomic_write.hpp"
 #include "io/case_config.hpp"
@@ -61,19 +62,10 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   return o;
 }
 
-// Forced refinement: the walls (non-periodic sides) at adapt.wall_level.
-template <int D>
-std::function<int(const tree::Box<D>&)> wall_refinement(const io::CaseConfig& c, const tree::TreeOptions<D>& t) {
-  const int level = c.adapt.wall_level;
-  if (level <= 0) return {};
-  return [level, t](const tree::Box<D>& b) {
-    for (int d = 0; d < D; ++d) {
-      if (t.periodic[d]) continue;
-      const double lo = t.origin[d], hi = lo + t.roots[d] * t.root_size;
-      if (b.lo[d] <= lo + 1e-12 || b.hi[d] >= hi - 1e-12) return level;
-    }
-    return 0;
-  };
+fluid::AdaptationOptions adaptation_options(const io::AdaptConfig& a) {
+  return {.enabled = a.enabled, .interval = a.interval, .max_interval = a.max_interval,
+          .velocity_tolerance = a.velocity_tolerance, .velocity_tolerance_relative = a.velocity_tolerance_relative,
+          .min_level = a.min_level, .wall_level = a.wall_level};
 }
 
 std::string numbered(const char* stem, long step, const char* ext) {
@@ -85,14 +77,16 @@ class FlowRun {
  public:
   FlowRun(const io::CaseConfig& c, const RunRequest& req, fs::path out)
       : case_(c), request_(req), out_(std::move(out)), tree_(io::tree_options<D>(c)), ns_(tree_, flow_options<D>(c)),
-        progress_(req.quiet) {
+        adaptation_(ns_, adaptation_options(c.adapt)), progress_(req.quiet) {
     if constexpr (D == 3)
-      if (!c.capsules.empty()) capsules_ = std::make_unique<CapsuleSet>(c, ns_);
+      if (!c.capsules.empty()) {
+        capsules_ = std::make_unique<CapsuleSet>(c, ns_);
+        adaptation_.set_bodies(&capsules_->coupling());
+      }
   }
 
   void run() {
     const auto& c = case_;
-    const int top = c.adapt.max_level;
     long step = 0;
     if (request_.restart) {
       // The checkpoint must fit this case: its time span and its capsules (node counts
@@ -104,13 +98,8 @@ class FlowRun {
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);
-    } else if (c.adapt.enabled) {
-      const auto walls = wall_refinement<D>(c, tree_.options());
-      const int base = c.adapt.min_level;
-      tree_.refine_to([&](const tree::Box<D>& b) { return std::max(base, walls ? walls(b) : 0); });
-      if (capsules_) (void)capsules_->coupling().refine_initial();
     } else {
-      tree_.refine_to([top](const tree::Box<D>&) { return top; });
+      (void)adaptation_.refine_initial();
     }
     fs::create_directories(out_);
     io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
@@ -126,8 +115,8 @@ class FlowRun {
     else if (c.output.vtu) snapshot(series, step);
 
     const auto start = std::chrono::steady_clock::now();
+    const long first_step = step;  // a restart times only its own steps
     const double t_end = c.time.t_end;
-    const auto walls = wall_refinement<D>(c, tree_.options());
     while (ns_.time() < t_end * (1 - 1e-12)) {
       ns_.limit_dt(t_end - ns_.time());
       fluid::StepStats st;
@@ -141,6 +130,7 @@ class FlowRun {
         st = ns_.step();
       }
       ++step;
+      (void)adaptation_.after_step(step);  // the stage after the flow (and membrane) step
       const double vmax = max_speed();
       if (!std::isfinite(vmax))
         throw RunFailure(fmt::format(
@@ -148,10 +138,6 @@ class FlowRun {
             "limit (advection needs dt < h / |u|; set time.cfl, e.g. 0.5). Output up to the last snapshot is kept in {}",
             step, ns_.time(), st.dt, out_.string()));
       const bool last = ns_.time() >= t_end * (1 - 1e-12);
-      if (!capsules_ && c.adapt.enabled && step % c.adapt.interval == 0 && !last)  // (capsules: the coupling adapts)
-        (void)ns_.adapt(c.adapt.velocity_tolerance,
-                        {.min_level = c.adapt.min_level, .max_level = top, .required_level = walls},
-                        c.adapt.velocity_tolerance_relative);
       if (step % c.output.diagnostics_interval == 0 || last) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -172,9 +158,10 @@ class FlowRun {
       capsules_->write_final(out_);
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
-        const double n = double(std::max<long>(1, capsules_->coupling().steps()));
+        const double n = double(std::max<long>(1, step - first_step));
         std::fprintf(stderr, "time per step: membrane %.2f ms, spreading %.2f ms, fluid %.2f ms, interpolation %.2f ms, adapt %.2f ms\n",
-                     1e3 * s.membrane / n, 1e3 * s.spreading / n, 1e3 * s.fluid / n, 1e3 * s.interpolation / n, 1e3 * s.adapt / n);
+                     1e3 * s.membrane / n, 1e3 * s.spreading / n, 1e3 * s.fluid / n, 1e3 * s.interpolation / n,
+                     1e3 * adaptation_.seconds() / n);
       }
     }
   }
@@ -232,6 +219,7 @@ class FlowRun {
   fs::path out_;
   tree::Tree<D> tree_;
   fluid::NavierStokes<D> ns_;
+  fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
   ProgressLine progress_;
 };

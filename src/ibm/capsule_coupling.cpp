@@ -52,12 +52,8 @@ bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::M
 
 }  // namespace
 
-CapsuleCoupling::CapsuleCoupling(fluid::NavierStokes<3>& ns, CouplingAdapt adapt) : ns_(ns), adapt_(adapt) {
-  if (adapt_.interval < 1)
-    throw std::invalid_argument(fmt::format("ibm: adapt interval {} must be >= 1", adapt_.interval));
-  if (adapt_.max_interval < 0)
-    throw std::invalid_argument(fmt::format("ibm: adapt max_interval {} must be >= 0", adapt_.max_interval));
-  if (adapt_.margin < 0) throw std::invalid_argument(fmt::format("ibm: adapt margin {} must be >= 0", adapt_.margin));
+CapsuleCoupling::CapsuleCoupling(fluid::NavierStokes<3>& ns, int margin) : ns_(ns), margin_(margin) {
+  if (margin_ < 0) throw std::invalid_argument(fmt::format("ibm: band margin {} must be >= 0", margin_));
   // The flow solver asks for its body force during its acceleration stage; between
   // coupled steps (or after a failed spreading) there is none.
   ns_.set_face_force([this](const tree::Tree<3>& t, fluid::FaceField<3>& faces) {
@@ -98,32 +94,16 @@ void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) con
       where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, membrane_time_scale()));
 }
 
-bool CapsuleCoupling::touches_wall(const tree::Box<3>& b) const {
-  const auto& o = ns_.tree().options();
-  const double eps = 1e-9 * o.root_size;
-  for (int d = 0; d < 3; ++d) {
-    if (o.periodic[d]) continue;
-    const double lo = o.origin[d], hi = lo + o.roots[d] * o.root_size;
-    for (int side = 0; side < 2; ++side) {
-      const auto kind = ns_.options().boundaries[2 * d + side].kind;
-      if (kind != fluid::SideKind::wall && kind != fluid::SideKind::moving_wall) continue;
-      if (side == 0 ? b.lo[d] <= lo + eps : b.hi[d] >= hi - eps) return true;
-    }
-  }
-  return false;
-}
-
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
   int r = 0;
   for (const Capsule& c : capsules_) r = std::max(r, c.tags(b));
-  if (adapt_.wall_level > r && touches_wall(b)) r = adapt_.wall_level;
   return r;
 }
 
-void CapsuleCoupling::build_tags() {
+void CapsuleCoupling::update_region() {
   const tree::Tree<3>& t = ns_.tree();
   for (Capsule& c : capsules_)
-    c.tags.build(t.options(), t.max_level(), band_cells(c.kernels.spread, c.kernels.interpolate, adapt_.margin), c.x);
+    c.tags.build(t.options(), t.max_level(), band_cells(c.kernels.spread, c.kernels.interpolate, margin_), c.x);
 }
 
 bool CapsuleCoupling::stencils_ready() const {
@@ -133,53 +113,20 @@ bool CapsuleCoupling::stencils_ready() const {
   });
 }
 
-tree::AdaptCounts CapsuleCoupling::refine_initial() {
-  build_tags();
-  tree::AdaptOptions<3> opt{.min_level = adapt_.min_level,
-                            .required_level = [this](const tree::Box<3>& b) { return required_level(b); },
-                            .allow_coarsening = false};
-  tree::AdaptCounts total;
-  for (int pass = 0; pass < 64; ++pass) {
-    // An infinite tolerance: only forced refinement (the velocity may be anything).
-    const tree::AdaptCounts c = ns_.adapt(1e300, opt);
-    total.refined += c.refined;
-    total.leaves = c.leaves;
-    total.cells = c.cells;
-    if (c.refined == 0) return total;
-  }
-  throw std::runtime_error("capsule coupling: the initial refinement did not settle in 64 passes");
-}
-
-tree::AdaptCounts CapsuleCoupling::adapt() {
-  const auto t0 = Clock::now();
-  build_tags();
-  tree::AdaptOptions<3> opt{.min_level = adapt_.min_level,
-                            .required_level = [this](const tree::Box<3>& b) { return required_level(b); }};
-  tree::AdaptCounts counts = ns_.adapt(adapt_.velocity_tolerance, opt, adapt_.velocity_tolerance_relative);
-  // One adapt refines a leaf by one level; the band moves less than its margin per step,
-  // so this rarely does anything, but a stencil must never miss a cell.
-  if (!stencils_ready()) {
-    const tree::AdaptCounts more = refine_initial();
-    counts.refined += more.refined;
-    counts.leaves = more.leaves;
-    counts.cells = more.cells;
-  }
-  for (Capsule& c : capsules_) c.x_at_adapt = c.x;
-  since_adapt_ = 0;
-  times_.adapt += seconds_since(t0);
-  return counts;
-}
-
-bool CapsuleCoupling::adapt_due() const {
-  if (!adapt_.enabled || steps_ % adapt_.interval != 0) return false;
-  if (adapt_.max_interval <= adapt_.interval || since_adapt_ >= adapt_.max_interval) return true;
+bool CapsuleCoupling::may_wait(int max_interval) const {
+  if (since_adapt_ >= max_interval) return false;
   double moved = 0.0;
   for (const Capsule& c : capsules_)
     if (c.x_at_adapt.cols() == c.x.cols()) moved = std::max(moved, (c.x - c.x_at_adapt).colwise().norm().maxCoeff());
   // The band reaches `margin` max-level cells beyond the kernels; at the mean speed since
   // the last adaptation the nodes must stay within half of that until the forced one.
-  const double projected = moved * static_cast<double>(adapt_.max_interval) / static_cast<double>(since_adapt_);
-  return projected > 0.5 * adapt_.margin * ns_.tree().cell_size(ns_.tree().max_level());
+  const double projected = moved * static_cast<double>(max_interval) / static_cast<double>(since_adapt_);
+  return !(projected > 0.5 * margin_ * ns_.tree().cell_size(ns_.tree().max_level()));
+}
+
+void CapsuleCoupling::adapted() {
+  for (Capsule& c : capsules_) c.x_at_adapt = c.x;
+  since_adapt_ = 0;
 }
 
 void CapsuleCoupling::compute_forces(int step) {
@@ -264,10 +211,6 @@ CouplingStep CapsuleCoupling::step() {
   move_nodes(step, out.fluid.dt);
   ++steps_;
   ++since_adapt_;
-  if (adapt_due()) {
-    out.adapt = adapt();
-    out.adapted = true;
-  }
   return out;
 }
 

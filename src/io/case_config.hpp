@@ -72,11 +72,11 @@ struct AdaptConfig {
   // > 0: the tolerance tightens to this fraction of max |u| when that is smaller (flows
   // that decay, like a relaxing capsule); 0: velocity_tolerance alone.
   double velocity_tolerance_relative = 0.0;
-  int wall_level = 0;                // level forced along non-periodic walls (0: off)
+  int wall_level = 0;                // level forced along walls, the no-slip sides (0: off)
   int membrane_band = 4;             // cells of max_level forced around membrane nodes
   int interval = 1;                  // steps between adaptations
   // > interval: with capsules, an adaptation may wait up to this many steps while the
-  // membrane nodes barely move (ibm::CouplingAdapt::max_interval); 0: every interval.
+  // membrane nodes barely move (ibm::CapsuleCoupling::may_wait); 0: every interval.
   int max_interval = 0;
   bool operator==(const AdaptConfig&) const = default;
 };

@@ -129,7 +129,7 @@ void check_sizes(const Mesh& mesh, const Eigen::Matrix3Xd& x) {
 Moments moments(const Mesh& mesh, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& origin) {
   check_sizes(mesh, x);
   (void)p2_moment_rule();  // built before the parallel region
-  return mesh.order == Order::p1 ? integrate<3>(mesh, x, origin) : integrate<6>(mesh, x, origin);
+  return with_element_nodes(mesh.order, [&](auto nn) { return integrate<nn()>(mesh, x, origin); });
 }
 
 }  // namespace

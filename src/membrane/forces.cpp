@@ -19,7 +19,11 @@ QuadratureRule force_rule(Order order, const ModelOptions& options) {
                                 std::to_string(options.quadrature_degree) + " must be >= 0");
   }
   if (options.quadrature_degree > 0) return gauss_rule_for_degree(options.quadrature_degree);
-  return order == Order::p1 ? centroid_rule() : hammer3_rule();
+  switch (order) {
+    case Order::p1: return centroid_rule();
+    case Order::p2: return hammer3_rule();
+  }
+  throw std::logic_error("MembraneModel: unknown element order");
 }
 
 }  // namespace
@@ -27,8 +31,7 @@ QuadratureRule force_rule(Order order, const ModelOptions& options) {
 MembraneModel::MembraneModel(Mesh reference, const LawParameters& law, const ModelOptions& options)
     : mesh_(std::move(reference)), law_(make_law(law)), rule_(force_rule(mesh_.order, options)) {
   validate_mesh(mesh_);
-  if (mesh_.order == Order::p1) precompute<3>();
-  else precompute<6>();
+  with_element_nodes(mesh_.order, [&](auto nn) { precompute<nn()>(); });
 }
 
 template <int Nn>
@@ -160,7 +163,7 @@ double MembraneModel::energy(const Eigen::Matrix3Xd& x) const {
   check_configuration(x);
   return std::visit(
       [&](const auto& law) {
-        return mesh_.order == Order::p1 ? assemble<3>(law, x, nullptr, nullptr) : assemble<6>(law, x, nullptr, nullptr);
+        return with_element_nodes(mesh_.order, [&](auto nn) { return assemble<nn()>(law, x, nullptr, nullptr); });
       },
       law_);
 }
@@ -171,7 +174,7 @@ double MembraneModel::compute_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd
   return std::visit(
       [&](const auto& law) {
         Eigen::Vector3d* buffer = element_forces_.data();
-        return mesh_.order == Order::p1 ? assemble<3>(law, x, &forces, buffer) : assemble<6>(law, x, &forces, buffer);
+        return with_element_nodes(mesh_.order, [&](auto nn) { return assemble<nn()>(law, x, &forces, buffer); });
       },
       law_);
 }
@@ -194,10 +197,11 @@ std::vector<PrincipalTensions> MembraneModel::element_tensions(const Eigen::Matr
     const double c21 = (G11 * g12 - G12 * g11) / det_G, c22 = (G11 * g22 - G12 * g12) / det_G;
     return std::visit([&](const auto& law) { return tensions_from_mixed(law, c11, c12, c21, c22); }, law_);
   };
+  with_element_nodes(mesh_.order, [&](auto nn) {
 #pragma omp parallel for schedule(static)
-  for (std::int64_t e = 0; e < n_elements; ++e)
-    out[static_cast<std::size_t>(e)] = mesh_.order == Order::p1 ? at_centroid.template operator()<3>(e)
-                                                                : at_centroid.template operator()<6>(e);
+    for (std::int64_t e = 0; e < n_elements; ++e)
+      out[static_cast<std::size_t>(e)] = at_centroid.template operator()<nn()>(e);
+  });
   return out;
 }
 

@@ -41,8 +41,7 @@ Eigen::SparseMatrix<double> consistent_mass_matrix(const Mesh& mesh, const Eigen
                                 " nodes, the mesh " + std::to_string(mesh.node_count()));
   std::vector<Eigen::Triplet<double>> triplets;
   triplets.reserve(mesh.elements.size() * static_cast<std::size_t>(nodes_per_element(mesh.order)));
-  if (mesh.order == Order::p1) add_element_mass<3>(mesh, x, triplets);
-  else add_element_mass<6>(mesh, x, triplets);
+  with_element_nodes(mesh.order, [&](auto nn) { add_element_mass<nn()>(mesh, x, triplets); });
   Eigen::SparseMatrix<double> m(mesh.node_count(), mesh.node_count());
   m.setFromTriplets(triplets.begin(), triplets.end());
   return m;

@@ -14,14 +14,32 @@
 
 #include <cstdint>
 #include <span>
+#include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 namespace capsflow::membrane {
 
 enum class Order : int { p1 = 1, p2 = 2 };
 
+// Calls f(std::integral_constant<int, Nn>{}) with the nodes per element of `order`: the one
+// place an order becomes a template argument. A switch without default, so that -Wswitch
+// flags a new order left out, where a ternary would silently treat it as P2.
+template <class F>
+decltype(auto) with_element_nodes(Order order, F&& f) {
+  switch (order) {
+    case Order::p1: return f(std::integral_constant<int, 3>{});
+    case Order::p2: return f(std::integral_constant<int, 6>{});
+  }
+  throw std::logic_error("membrane: unknown element order");
+}
+
 [[nodiscard]] constexpr int nodes_per_element(Order order) noexcept {
-  return order == Order::p1 ? 3 : 6;
+  switch (order) {
+    case Order::p1: return 3;
+    case Order::p2: return 6;
+  }
+  return 0;  // unreachable: the switch is exhaustive
 }
 
 struct Mesh {

@@ -23,7 +23,8 @@ struct SeedRun {
   membrane::Order order = membrane::Order::p2;
   int mesh_level = 3;     // 642 nodes
   double tolerance = 1e-6;  // multigrid tolerances (projection and viscosity)
-  CouplingAdapt adapt{.enabled = true, .velocity_tolerance = 1e-2, .min_level = 2, .margin = 2};
+  fluid::AdaptationOptions adapt{.enabled = true, .velocity_tolerance = 1e-2, .min_level = 2};
+  int margin = 2;  // the band's cells beyond the kernels
   KernelChoice kernels{};
 };
 
@@ -31,6 +32,13 @@ struct SeedSetup {
   std::unique_ptr<tree::Tree<3>> tree;
   std::unique_ptr<fluid::NavierStokes<3>> ns;
   std::unique_ptr<CapsuleCoupling> coupling;
+  std::unique_ptr<fluid::Adaptation<3>> adaptation;  // with the coupling's membrane bands
+
+  // One coupled step, then the adapt stage (as capsflow run does); whether it adapted.
+  bool step() {
+    (void)coupling->step();
+    return adaptation->after_step(coupling->steps());
+  }
 };
 
 inline fluid::FlowOptions<3> seed_flow(const SeedRun& r) {
@@ -49,14 +57,16 @@ inline SeedSetup seed_setup(const SeedRun& r) {
   const int base = r.min_level;
   s.tree->refine_to([base](const tree::Box<3>&) { return base; });
   s.ns = std::make_unique<fluid::NavierStokes<3>>(*s.tree, seed_flow(r));
-  s.coupling = std::make_unique<CapsuleCoupling>(*s.ns, r.adapt);
+  s.coupling = std::make_unique<CapsuleCoupling>(*s.ns, r.margin);
   membrane::MembraneModel model(
       membrane::make_icosphere({.order = r.order, .level = r.mesh_level, .radius = r.radius}),
       {.kind = membrane::LawKind::skalak, .gs = shear_modulus(r.Ca, r.Re), .c = 1.0});
   Eigen::Matrix3Xd x = r.ellipsoid ? membrane::seed_ellipsoid(model.mesh().nodes, Eigen::Vector3d::Zero())
                                    : Eigen::Matrix3Xd(model.mesh().nodes);
   s.coupling->add_capsule(std::move(model), std::move(x), r.kernels);
-  (void)s.coupling->refine_initial();
+  s.adaptation = std::make_unique<fluid::Adaptation<3>>(*s.ns, r.adapt);
+  s.adaptation->set_bodies(s.coupling.get());
+  (void)s.adaptation->refine_initial();
   return s;
 }
 

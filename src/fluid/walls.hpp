@@ -1,0 +1,27 @@
+#pragma once
+// Walls: the boundaries where the flow sticks (no slip), so that boundary layers form there
+// and adapt.wall_level refines them. Today these are the brick's sides of kind wall and
+// moving_wall; inflow, outflow, prescribed and periodic sides are not walls (the flow
+// crosses them). Embedded walls will be added here, so that everything asking "is this a
+// wall" keeps one answer.
+#include <array>
+
+#include "fluid/flow_boundary.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::fluid {
+
+// Whether a side of this kind is a wall (no slip).
+[[nodiscard]] bool is_wall(SideKind kind);
+
+// Whether the leaf box b touches a wall side of the brick (within 1e-9 root sizes).
+template <int D>
+[[nodiscard]] bool touches_wall(const tree::TreeOptions<D>& tree, const std::array<SideFlow<D>, 2 * D>& sides,
+                                const tree::Box<D>& b);
+
+extern template bool touches_wall<2>(const tree::TreeOptions<2>&, const std::array<SideFlow<2>, 4>&,
+                                     const tree::Box<2>&);
+extern template bool touches_wall<3>(const tree::TreeOptions<3>&, const std::array<SideFlow<3>, 6>&,
+                                     const tree::Box<3>&);
+
+}  // namespace capsflow::fluid

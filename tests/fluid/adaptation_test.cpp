@@ -1,0 +1,94 @@
+// The adapt stage (fluid/adaptation.hpp) and the one definition of walls (fluid/walls.hpp):
+// walls are the no-slip sides; forced levels follow them, not the inflow or the outflow;
+// adaptations follow the run's step number, so a restarted run adapts when the
+// uninterrupted one does.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "fluid/adaptation.hpp"
+#include "fluid/walls.hpp"
+
+namespace capsflow::fluid {
+namespace {
+
+TEST(Walls, OnlyNoSlipSidesAreWalls) {
+  EXPECT_TRUE(is_wall(SideKind::wall));
+  EXPECT_TRUE(is_wall(SideKind::moving_wall));
+  EXPECT_FALSE(is_wall(SideKind::inflow));
+  EXPECT_FALSE(is_wall(SideKind::outflow));
+  EXPECT_FALSE(is_wall(SideKind::periodic));
+  EXPECT_FALSE(is_wall(SideKind::prescribed));
+}
+
+// A 2D channel [0, 2] x [0, 1]: inflow at x_lo, outflow at x_hi, walls at y_lo and y_hi.
+struct Channel {
+  static FlowOptions<2> flow() {
+    FlowOptions<2> o{.Re = 1.0, .stokes = true, .dt = 0.01};
+    for (auto& s : o.boundaries) s.kind = SideKind::wall;
+    o.boundaries[0].kind = SideKind::inflow;
+    o.boundaries[1].kind = SideKind::outflow;
+    return o;
+  }
+  tree::Tree<2> tree{tree::TreeOptions<2>{.roots = {2, 1}, .root_size = 1.0, .max_level = 6}};
+  NavierStokes<2> ns{tree, flow()};
+};
+
+TEST(Adaptation, InitialRefinementForcesWallsNotInflowOrOutflow) {
+  Channel c;
+  Adaptation<2> a(c.ns, {.min_level = 2, .wall_level = 5});
+  (void)a.refine_initial();
+  const double eps = 1e-12;
+  int on_walls = 0, on_ends = 0;
+  for (const tree::Index i : c.tree.leaves()) {
+    const tree::Box<2> b = c.tree.box(i);
+    const int l = c.tree.level_of(i);
+    EXPECT_GE(l, 2);
+    if (b.lo[1] <= eps || b.hi[1] >= 1.0 - eps) {
+      EXPECT_GE(l, 5) << "a leaf on a wall";
+      ++on_walls;
+    } else if ((b.lo[0] <= eps || b.hi[0] >= 2.0 - eps) && b.lo[1] >= 0.25 && b.hi[1] <= 0.75) {
+      EXPECT_LE(l, 3) << "a leaf on the inflow or the outflow, away from the walls";
+      ++on_ends;
+    }
+  }
+  EXPECT_GT(on_walls, 0);
+  EXPECT_GT(on_ends, 0);
+  EXPECT_EQ(a.required_level({{0.0, 0.5}, {1.0 / 64, 0.5 + 1.0 / 64}}), 0);  // inflow
+  EXPECT_EQ(a.required_level({{1.0, 0.0}, {1.0 + 1.0 / 64, 1.0 / 64}}), 5);  // wall y_lo
+}
+
+// Interval 3: the stage adapts after steps 3, 6, 9, ... of the run, whichever step it
+// was built at (a restart from step 4 builds it there).
+TEST(Adaptation, AdaptsAfterEveryIntervalOfTheRunsSteps) {
+  Channel c;
+  Adaptation<2> a(c.ns, {.interval = 3, .min_level = 2});
+  (void)a.refine_initial();
+  std::vector<int> adapted;
+  for (int step = 1; step <= 9; ++step)
+    if (a.after_step(step)) adapted.push_back(step);
+  EXPECT_EQ(adapted, (std::vector<int>{3, 6, 9}));
+  Adaptation<2> restarted(c.ns, {.interval = 3, .min_level = 2});
+  adapted.clear();
+  for (int step = 5; step <= 9; ++step)
+    if (restarted.after_step(step)) adapted.push_back(step);
+  EXPECT_EQ(adapted, (std::vector<int>{6, 9}));
+}
+
+TEST(Adaptation, OffMeansUniformAtTheMaxLevel) {
+  Channel c;
+  Adaptation<2> a(c.ns, {.enabled = false, .min_level = 2, .wall_level = 5});
+  (void)a.refine_initial();
+  EXPECT_EQ(c.tree.num_leaves(), 2 * 64 * 64);
+  EXPECT_FALSE(a.after_step(1));
+}
+
+TEST(Adaptation, BadOptionsAreRefused) {
+  Channel c;
+  EXPECT_THROW(Adaptation<2>(c.ns, {.interval = 0}), std::invalid_argument);
+  EXPECT_THROW(Adaptation<2>(c.ns, {.wall_level = 7}), std::invalid_argument);
+  EXPECT_THROW(Adaptation<2>(c.ns, {.min_level = -1}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace capsflow::fluid
