@@ -47,8 +47,9 @@ void prepare_output_dir(const fs::path& out, bool force, const std::optional<fs:
   if (fs::is_directory(status) && !force) {
     const auto marker = run_marker(out);
     if (marker && !continues_in_place(out, restart))
-      throw RequestError(fmt::format("{}: holds another run ({}); choose another --out, or add --force to write over it",
-                                     name, *marker));
+      throw RequestError(
+          fmt::format("{}: holds another run ({}); choose another --out, or add --force to write over it",
+                      name, *marker));
   }
   fs::create_directories(out, ec);
   if (ec) throw RequestError(fmt::format("{}: cannot create the output folder: {}", name, ec.message()));

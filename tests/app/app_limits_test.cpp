@@ -35,8 +35,9 @@ TEST(AppLimits, MemoryBombsAreRefusedWithTheEstimate) {
   const fs::path dir = scratch("memory");
   const auto start = std::chrono::steady_clock::now();
   for (const std::string& args : {quick("--adapt off --set adapt.max_level=12"),
-                                 "run " + std::string(CAPSFLOW_CASES_DIR) + "/duct_3d.toml --quiet --set domain.roots=[1000,1000,1000]",
-                                 cavity("--max-memory 1M")}) {
+                                  "run " + std::string(CAPSFLOW_CASES_DIR) +
+                                      "/duct_3d.toml --quiet --set domain.roots=[1000,1000,1000]",
+                                  cavity("--max-memory 1M")}) {
     const auto r = capsflow(args + " --out " + (dir / "out").string(), dir);
     EXPECT_EQ(r.status, 2) << args << ": " << r.err;
     EXPECT_THAT(r.err, HasSubstr("memory estimate"));
