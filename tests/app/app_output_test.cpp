@@ -136,6 +136,13 @@ TEST(AppOutput, UnusableOutIsRefusedBeforeWork) {
     EXPECT_EQ(lines(r.err), 1) << r.err;
   }
   EXPECT_EQ(slurp(dir / "plain.txt"), "not a folder");
+  // A checkpoint refused after the folder was checked leaves no empty folder behind.
+  write(dir, "broken.h5", "not HDF5");
+  EXPECT_EQ(
+      capsflow(cavity("--out " + (dir / "new").string() + " --restart " + (dir / "broken.h5").string()), dir)
+          .status,
+      2);
+  EXPECT_FALSE(fs::exists(dir / "new"));
   if (::geteuid() != 0) {  // root writes anywhere
     fs::create_directories(dir / "locked");
     fs::permissions(dir / "locked", fs::perms::owner_read | fs::perms::owner_exec);
