@@ -51,6 +51,24 @@ TEST(AppLimits, MemoryBombsAreRefusedWithTheEstimate) {
   EXPECT_THAT(bad.err, HasSubstr("--max-memory"));
 }
 
+// A run that passes the estimate but still runs out (here under a 400 MB address-space
+// limit) says so, with status 3, instead of "std::bad_alloc".
+TEST(AppLimits, OutOfMemoryIsReported) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+#endif
+  const fs::path dir = scratch("oom");
+  const std::string cmd = "ulimit -v 400000; OMP_NUM_THREADS=1 " + std::string(CAPSFLOW_BINARY) + " " +
+                          cavity("--adapt off --set adapt.max_level=11 --out " + (dir / "out").string()) +
+                          " 2> " + (dir / "err.txt").string();
+  const int raw = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(raw));
+  EXPECT_EQ(WEXITSTATUS(raw), 3);
+  const std::string err = slurp(dir / "err.txt");
+  EXPECT_THAT(err, StartsWith("capsflow: out of memory"));
+  EXPECT_EQ(lines(err), 1) << err;
+}
+
 // Starts capsflow in the background (one thread, stderr to a file); returns its pid.
 pid_t spawn(const std::string& args, const fs::path& err) {
   const pid_t pid = ::fork();
