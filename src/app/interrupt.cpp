@@ -18,9 +18,12 @@ extern "C" void on_signal(int signal) { g_signal = signal; }
 
 const char* signal_name(int signal) {
   switch (signal) {
-    case SIGINT: return "SIGINT";
-    case SIGTERM: return "SIGTERM";
-    default: return "a signal";
+    case SIGINT:
+      return "SIGINT";
+    case SIGTERM:
+      return "SIGTERM";
+    default:
+      return "a signal";
   }
 }
 
@@ -40,9 +43,10 @@ void install_interrupt_handlers() {
 int interrupt_signal() { return g_signal; }
 
 Interrupted::Interrupted(int signal, long step, double time, const std::filesystem::path& checkpoint)
-    : std::runtime_error(fmt::format("interrupted by {} after step {} (t = {:.6g}); checkpoint written to {}; "
-                                     "continue with --restart {}",
-                                     signal_name(signal), step, time, checkpoint.string(), checkpoint.string())),
+    : std::runtime_error(
+          fmt::format("interrupted by {} after step {} (t = {:.6g}); checkpoint written to {}; "
+                      "continue with --restart {}",
+                      signal_name(signal), step, time, checkpoint.string(), checkpoint.string())),
       signal_(signal) {}
 
 }  // namespace capsflow::app

@@ -90,8 +90,10 @@ std::uint64_t parse_memory_size(const std::string& text) {
   }
   std::string unit = text.substr(used);
   for (char& ch : unit) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-  if (unit.ends_with("IB")) unit.resize(unit.size() - 2);
-  else if (unit.size() == 2 && unit.back() == 'B') unit.resize(1);
+  if (unit.ends_with("IB"))
+    unit.resize(unit.size() - 2);
+  else if (unit.size() == 2 && unit.back() == 'B')
+    unit.resize(1);
   const std::string prefixes = "KMGTP";
   double scale = 1.0;
   if (unit == "B") unit.clear();
@@ -110,13 +112,17 @@ void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, c
   const MemoryEstimate e = estimate_memory(c);
   const auto available = available_memory();
   std::string over;
-  if (limit && e.bytes > double(*limit)) over = fmt::format("--max-memory {}", human(double(*limit)));
-  else if (available && e.bytes > *available) over = fmt::format("the available memory, {}", human(*available));
+  if (limit && e.bytes > double(*limit))
+    over = fmt::format("--max-memory {}", human(double(*limit)));
+  else if (available && e.bytes > *available)
+    over = fmt::format("the available memory, {}", human(*available));
   if (over.empty()) return;
-  throw RequestError(fmt::format(
-      "{}: memory estimate {} ({:.3g} cells on levels 0 to {} of the tree{}) exceeds {}; lower {} or domain.roots",
-      source, human(e.bytes), e.cells, e.level, e.lower_bound ? ", the adaptive run's coarsest grid" : ", a uniform grid",
-      over, e.lower_bound ? "adapt.min_level" : "adapt.max_level (or use --adapt on)"));
+  throw RequestError(
+      fmt::format("{}: memory estimate {} ({:.3g} cells on levels 0 to {} of the tree{}) exceeds {}; lower "
+                  "{} or domain.roots",
+                  source, human(e.bytes), e.cells, e.level,
+                  e.lower_bound ? ", the adaptive run's coarsest grid" : ", a uniform grid", over,
+                  e.lower_bound ? "adapt.min_level" : "adapt.max_level (or use --adapt on)"));
 }
 
 }  // namespace capsflow::app

@@ -13,7 +13,7 @@ namespace capsflow::app {
 struct MemoryEstimate {
   double cells = 0.0;  // on every level of the tree (leaves and their ancestors)
   double bytes = 0.0;
-  int level = 0;       // the uniform level the count is for
+  int level = 0;             // the uniform level the count is for
   bool lower_bound = false;  // adaptive: only the min_level grid is known before the run
 };
 

@@ -38,7 +38,7 @@ bool continues_in_place(const fs::path& out, const std::optional<fs::path>& rest
   return restart && same_folder(restart->parent_path(), out);
 }
 
-void prepare_output_dir(const fs::path& out, bool force, const std::optional<fs::path>& restart) {
+bool prepare_output_dir(const fs::path& out, bool force, const std::optional<fs::path>& restart) {
   const std::string name = out.string();
   std::error_code ec;
   const fs::file_status status = fs::status(out, ec);
@@ -47,10 +47,11 @@ void prepare_output_dir(const fs::path& out, bool force, const std::optional<fs:
   if (fs::is_directory(status) && !force) {
     const auto marker = run_marker(out);
     if (marker && !continues_in_place(out, restart))
-      throw RequestError(fmt::format("{}: holds another run ({}); choose another --out, or add --force to write over it",
-                                     name, *marker));
+      throw RequestError(
+          fmt::format("{}: holds another run ({}); choose another --out, or add --force to write over it",
+                      name, *marker));
   }
-  fs::create_directories(out, ec);
+  const bool created = fs::create_directories(out, ec);
   if (ec) throw RequestError(fmt::format("{}: cannot create the output folder: {}", name, ec.message()));
   // Permissions, read-only mounts and full quotas show only when writing: try it now rather
   // than after the grid is built.
@@ -64,6 +65,12 @@ void prepare_output_dir(const fs::path& out, bool force, const std::optional<fs:
   fs::remove(probe, ec);
   if (!ok)
     throw RequestError(fmt::format("{}: cannot write in the output folder: {}", name, std::strerror(error)));
+  return created;
+}
+
+void remove_if_created_and_empty(const fs::path& out, bool created) {
+  std::error_code ec;
+  if (created && fs::is_empty(out, ec) && !ec) fs::remove(out, ec);
 }
 
 }  // namespace capsflow::app

@@ -14,16 +14,20 @@ class RequestError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Creates `out` if needed and writes (then removes) a probe file in it. Throws RequestError
-// naming the folder if it cannot, or if it holds another run (diagnostics.csv, case.toml,
-// series.pvd or a checkpoint) and neither `force` is set nor `restart` is a checkpoint in
-// that same folder (the way to continue a run in place).
 // True when `restart` is a checkpoint inside `out`: the run continues its own diagnostics and
 // series there. Otherwise (a new folder, or another run's with --force) they start afresh.
 [[nodiscard]] bool continues_in_place(const std::filesystem::path& out,
                                       const std::optional<std::filesystem::path>& restart);
 
-void prepare_output_dir(const std::filesystem::path& out, bool force,
+// Creates `out` if needed and writes (then removes) a probe file in it. Throws RequestError
+// naming the folder if it cannot, or if it holds another run (diagnostics.csv, case.toml,
+// series.pvd or a checkpoint) and neither `force` is set nor `restart` is a checkpoint in
+// that same folder (the way to continue a run in place). Returns true if it created `out`.
+bool prepare_output_dir(const std::filesystem::path& out, bool force,
                         const std::optional<std::filesystem::path>& restart);
+
+// Removes `out` if prepare_output_dir created it and it is still empty: input refused after
+// the check (a corrupt checkpoint) leaves no trace.
+void remove_if_created_and_empty(const std::filesystem::path& out, bool created);
 
 }  // namespace capsflow::app

@@ -235,15 +235,24 @@ void run_case(const RunRequest& req) {
   if (req.restart && fs::is_directory(*req.restart))
     throw io::CheckpointError(fmt::format("{}: is a directory, not a checkpoint file", req.restart->string()));
   check_memory(c, req.max_memory, req.case_file.string());
-  prepare_output_dir(out, req.force, req.restart);
+  const bool created = prepare_output_dir(out, req.force, req.restart);
   install_interrupt_handlers();
-  // Construction validates the flow options and boundary sides (std::invalid_argument).
-  if (c.dimension == 2) {
-    FlowRun<2> run(c, req, out);
-    run.run();
-  } else {
-    FlowRun<3> run(c, req, out);
-    run.run();
+  // Construction validates the flow options and boundary sides (std::invalid_argument); the
+  // checkpoint is read (io::CheckpointError) before anything is written.
+  try {
+    if (c.dimension == 2) {
+      FlowRun<2> run(c, req, out);
+      run.run();
+    } else {
+      FlowRun<3> run(c, req, out);
+      run.run();
+    }
+  } catch (const io::CheckpointError&) {
+    remove_if_created_and_empty(out, created);
+    throw;
+  } catch (const std::invalid_argument&) {
+    remove_if_created_and_empty(out, created);
+    throw;
   }
 }
 

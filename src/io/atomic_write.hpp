@@ -4,7 +4,10 @@
 // writer has returned. rename(2) within one file system is atomic, so a run killed at any
 // moment leaves either the previous complete file or the new complete file, never a
 // truncated one. (No fsync: the failure we guard against is a killed process, not a power
-// cut, and syncing every snapshot would cost more than it saves.)
+// cut, and syncing every snapshot would cost more than it saves.) The temporary is removed
+// when the writer throws; a process killed mid-write leaves it behind, which is why
+// `capsflow run` defers SIGINT and SIGTERM to the end of a step (app/interrupt.hpp): only a
+// second signal or SIGKILL can interrupt a write.
 #include <filesystem>
 #include <functional>
 #include <string_view>

@@ -35,8 +35,9 @@ TEST(AppLimits, MemoryBombsAreRefusedWithTheEstimate) {
   const fs::path dir = scratch("memory");
   const auto start = std::chrono::steady_clock::now();
   for (const std::string& args : {quick("--adapt off --set adapt.max_level=12"),
-                                 "run " + std::string(CAPSFLOW_CASES_DIR) + "/duct_3d.toml --quiet --set domain.roots=[1000,1000,1000]",
-                                 cavity("--max-memory 1M")}) {
+                                  "run " + std::string(CAPSFLOW_CASES_DIR) +
+                                      "/duct_3d.toml --quiet --set domain.roots=[1000,1000,1000]",
+                                  cavity("--max-memory 1M")}) {
     const auto r = capsflow(args + " --out " + (dir / "out").string(), dir);
     EXPECT_EQ(r.status, 2) << args << ": " << r.err;
     EXPECT_THAT(r.err, HasSubstr("memory estimate"));
@@ -48,6 +49,24 @@ TEST(AppLimits, MemoryBombsAreRefusedWithTheEstimate) {
   const auto bad = capsflow(cavity("--max-memory lots --out " + (dir / "bad").string()), dir);
   EXPECT_EQ(bad.status, 2);
   EXPECT_THAT(bad.err, HasSubstr("--max-memory"));
+}
+
+// A run that passes the estimate but still runs out (here under a 400 MB address-space
+// limit) says so, with status 3, instead of "std::bad_alloc".
+TEST(AppLimits, OutOfMemoryIsReported) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+#endif
+  const fs::path dir = scratch("oom");
+  const std::string cmd = "ulimit -v 400000; OMP_NUM_THREADS=1 " + std::string(CAPSFLOW_BINARY) + " " +
+                          cavity("--adapt off --set adapt.max_level=11 --out " + (dir / "out").string()) +
+                          " 2> " + (dir / "err.txt").string();
+  const int raw = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(raw));
+  EXPECT_EQ(WEXITSTATUS(raw), 3);
+  const std::string err = slurp(dir / "err.txt");
+  EXPECT_THAT(err, StartsWith("capsflow: out of memory"));
+  EXPECT_EQ(lines(err), 1) << err;
 }
 
 // Starts capsflow in the background (one thread, stderr to a file); returns its pid.

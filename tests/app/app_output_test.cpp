@@ -24,7 +24,8 @@ using ::testing::StartsWith;
 std::string cavity(const std::string& extra) {
   return "run " + std::string(CAPSFLOW_CASES_DIR) +
          "/cavity_2d.toml --quiet --set time.cfl=0 --set time.dt=0.005 --set time.t_end=0.02 "
-         "--set output.interval=4 " + extra;
+         "--set output.interval=4 " +
+         extra;
 }
 
 long lines(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
@@ -56,8 +57,8 @@ TEST(AppOutput, SeriesNamesFilesRelativeToThePvd) {
   const fs::path dir = scratch("series_relative");
   fs::create_directories(dir / "work");
   const std::string cd = "cd " + (dir / "work").string() + " && ";
-  const std::string cmd = cd + "OMP_NUM_THREADS=1 " + CAPSFLOW_BINARY + " " + cavity("--out runs/a") + " 2> " +
-                          (dir / "err.txt").string();
+  const std::string cmd = cd + "OMP_NUM_THREADS=1 " + CAPSFLOW_BINARY + " " + cavity("--out runs/a") +
+                          " 2> " + (dir / "err.txt").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir / "err.txt");
   EXPECT_EQ(check_series(dir / "work" / "runs" / "a" / "series.pvd"), 2);
 
@@ -75,24 +76,32 @@ TEST(AppOutput, RestartIntoANewFolder) {
   const fs::path dir = scratch("restart_new");
   const std::string base = cavity("--set output.checkpoint=true --set output.checkpoint_interval=2 ");
   ASSERT_EQ(capsflow(base + "--out " + (dir / "old").string(), dir).status, 0);
-  const auto r = capsflow(base + "--set output.diagnostics_interval=1 --out " + (dir / "fresh" / "r").string() +
-                              " --restart " + (dir / "old" / "checkpoint_000002.h5").string(), dir);
+  const auto r =
+      capsflow(base + "--set output.diagnostics_interval=1 --out " + (dir / "fresh" / "r").string() +
+                   " --restart " + (dir / "old" / "checkpoint_000002.h5").string(),
+               dir);
   ASSERT_EQ(r.status, 0) << r.err;
   const std::string csv = slurp(dir / "fresh" / "r" / "diagnostics.csv");
   EXPECT_THAT(csv, StartsWith("step,t,dt,"));
-  EXPECT_EQ(lines(csv), 3) << csv;  // the header, steps 3 and 4
+  EXPECT_EQ(lines(csv), 3) << csv;                                 // the header, steps 3 and 4
   EXPECT_EQ(check_series(dir / "fresh" / "r" / "series.pvd"), 1);  // step 4
   // Over another run only with --force, and then its diagnostics are not continued.
   ASSERT_EQ(capsflow(base + "--out " + (dir / "other").string(), dir).status, 0);
   const std::string restart = " --restart " + (dir / "old" / "checkpoint_000002.h5").string();
   EXPECT_EQ(capsflow(base + "--out " + (dir / "other").string() + restart, dir).status, 2);
-  EXPECT_EQ(capsflow(base + "--set output.diagnostics_interval=1 --force --out " + (dir / "other").string() + restart,
-                     dir).status, 0);
+  EXPECT_EQ(capsflow(base + "--set output.diagnostics_interval=1 --force --out " + (dir / "other").string() +
+                         restart,
+                     dir)
+                .status,
+            0);
   EXPECT_EQ(lines(slurp(dir / "other" / "diagnostics.csv")), 3);  // the header, steps 3 and 4
   // An empty existing folder works too.
   fs::create_directories(dir / "empty");
   EXPECT_EQ(capsflow(base + "--out " + (dir / "empty").string() + " --restart " +
-                         (dir / "old" / "checkpoint_000002.h5").string(), dir).status, 0);
+                         (dir / "old" / "checkpoint_000002.h5").string(),
+                     dir)
+                .status,
+            0);
 }
 
 // Another run's folder is refused (status 2, naming it) unless --force; the old run is intact.
@@ -127,6 +136,13 @@ TEST(AppOutput, UnusableOutIsRefusedBeforeWork) {
     EXPECT_EQ(lines(r.err), 1) << r.err;
   }
   EXPECT_EQ(slurp(dir / "plain.txt"), "not a folder");
+  // A checkpoint refused after the folder was checked leaves no empty folder behind.
+  write(dir, "broken.h5", "not HDF5");
+  EXPECT_EQ(
+      capsflow(cavity("--out " + (dir / "new").string() + " --restart " + (dir / "broken.h5").string()), dir)
+          .status,
+      2);
+  EXPECT_FALSE(fs::exists(dir / "new"));
   if (::geteuid() != 0) {  // root writes anywhere
     fs::create_directories(dir / "locked");
     fs::permissions(dir / "locked", fs::perms::owner_read | fs::perms::owner_exec);
