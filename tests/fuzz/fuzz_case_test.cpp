@@ -97,7 +97,7 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
   const fs::path dir = scratch("case");
   const std::size_t n = scaled(4000), through_binary = scaled(12);
   Tally tally, binary;
-  std::vector<Input> refused;
+  std::vector<Input> refused, valid;
   for (std::size_t i = 0; i < n; ++i) {
     const Case& base = m.pick(cases);
     Input in{base.text, {}};
@@ -117,6 +117,7 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
     if (seconds > 2.0) outcome = "\n(took " + std::to_string(seconds) + " s)";
     if (outcome.empty()) {
       ++tally.accepted;
+      if (valid.size() < 64 * through_binary) valid.push_back(std::move(in));
     } else if (outcome.find('\n') != std::string::npos) {
       keep_reproducer(dir, i, in);
       tally.findings.push_back("input " + std::to_string(i) + ": " + outcome);
@@ -150,6 +151,32 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
     EXPECT_EQ(problem, "") << "through the binary, case " << run / "case.toml";
   }
   binary.print("case files and --set, through the binary");
+
+#if !defined(__SANITIZE_ADDRESS__)  // (ASan needs terabytes of address space: no cap)
+  // A few accepted inputs through the binary for a few seconds each, with a capped address
+  // space: a run may finish (0), refuse (2, one line), fail (3) or still be running; it
+  // must not die of a signal or exit otherwise.
+  Tally running;
+  const std::size_t through_binary_valid = scaled(2);
+  for (std::size_t k = 0; k < through_binary_valid && !valid.empty(); ++k) {
+    const Input& in = valid[k * valid.size() / through_binary_valid];
+    const fs::path run = scratch("case_binary_valid");
+    std::ofstream(run / "case.toml", std::ios::binary) << in.text;
+    std::vector<std::string> args{"run", (run / "case.toml").string(), "--quiet", "--out", (run / "out").string()};
+    for (const std::string& set : in.sets) args.push_back("--set=" + set);
+    const Exit r = run_capsflow(args, run, std::chrono::seconds(3), rlim_t{4} << 30);
+    ++running.inputs;
+    std::string problem;
+    if (r.signal && !r.timed_out) problem = "killed by signal " + std::to_string(r.signal) + ": " + r.err;
+    else if (!r.timed_out && r.status != 0 && r.status != 2 && r.status != 3) problem = "exit status " + std::to_string(r.status);
+    else if (r.status == 2) problem = refusal_problem(r);
+    if (problem.empty()) ++running.accepted;
+    else running.findings.push_back(problem);
+    EXPECT_EQ(problem, "") << "an accepted case through the binary: " << run / "case.toml";
+    if (problem.empty()) fs::remove_all(run);
+  }
+  running.print("accepted case files and --set, run for up to 3 s through the binary");
+#endif
 }
 
 }  // namespace
