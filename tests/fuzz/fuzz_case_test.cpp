@@ -115,6 +115,7 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (seconds > 2.0) outcome = "\n(took " + std::to_string(seconds) + " s)";
+    if (outcome.size() > 2000) outcome = "\n(an error line of " + std::to_string(outcome.size()) + " characters)";
     if (outcome.empty()) {
       ++tally.accepted;
       if (valid.size() < 64 * through_binary) valid.push_back(std::move(in));

@@ -36,6 +36,7 @@ class Mutator {
         "{ type = \"moving_wall\", velocity = [1.0, 1.0] }", "'", "\"", "[", "{", "=", "0x10", "0o7", "0b11",
         "1_000", "1__0", "+1", "01", ".5", "5.", "1e", "--1", "\xff\xfe", "\x01"};
     if (chance(0.15)) return random_bytes(1 + below(6));
+    if (chance(0.01)) return std::string(1 + below(200000), "a[{\"1"[below(5)]);  // huge
     return pick(pool);
   }
 
