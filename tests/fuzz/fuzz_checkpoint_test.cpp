@@ -150,7 +150,8 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
   const fs::path dir = scratch("checkpoint_binary");
   std::ofstream(dir / "case.toml") << kCavity;
   const std::vector<std::string> run{"run", (dir / "case.toml").string(), "--quiet", "--set", "time.t_end=0.04"};
-  ASSERT_EQ(run_capsflow({"run", (dir / "case.toml").string(), "--quiet", "--out", (dir / "first").string()}, dir).status, 0);
+  const Exit first = run_capsflow({"run", (dir / "case.toml").string(), "--quiet", "--out", (dir / "first").string()}, dir);
+  ASSERT_EQ(first.status, 0) << first.err;
   const fs::path checkpoint = dir / "first" / "checkpoint_000002.h5";
   // Each restart continues in a copy of the first run's folder, as a user continues a run.
   auto restart = [&](const fs::path& file, const std::string& out) {
@@ -160,7 +161,8 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
       args.push_back(a);
     return run_capsflow(args, dir);
   };
-  ASSERT_EQ(restart(checkpoint, "clean").status, 0);
+  const Exit clean_run = restart(checkpoint, "clean");
+  ASSERT_EQ(clean_run.status, 0) << clean_run.err;
   const std::string clean = without_wall_clock(slurp(dir / "clean" / "diagnostics.csv"));
 
   const std::string bytes = slurp(checkpoint);
