@@ -16,6 +16,7 @@ with levels 3-4 and a tiny t_end) and runs under a 4 GB address-space limit, so 
 bomb cannot hurt the machine.
 """
 import os
+import re
 import resource
 import shutil
 import signal
@@ -85,7 +86,7 @@ def describe(r):
         return f"no exit within {TIMEOUT} s"
     if r.returncode < 0:
         return f"killed by signal {-r.returncode}"
-    first = r.err.strip().splitlines()[:1]
+    first = re.sub(r"\x1b\[[0-9;]*m", "", r.err).strip().splitlines()[:1]  # (VTK logs in colour)
     return f"exit {r.returncode}" + (f": {first[0][:160]}" if first else "")
 
 
