@@ -114,6 +114,7 @@ TEST(FuzzCheckpoint, CorruptionIsRefusedOrHarmless) {
   tally.print("damaged checkpoints, in-process");
   std::printf("[fuzz] %zu of them damaged bytes nobody reads (restored exactly)\n", harmless);
   EXPECT_GT(tally.rejected, tally.inputs / 2);
+  if (!HasFailure()) fs::remove_all(dir);  // (a failure keeps the damaged files)
 }
 
 // Through the binary: a small cavity run with its final checkpoint, damaged copies
@@ -186,6 +187,9 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
     EXPECT_EQ(problem, "") << "damaged copy " << i;
   }
   tally.print("damaged checkpoints, through the binary");
+  if (!HasFailure()) fs::remove_all(dir);
+  std::error_code ignored;
+  fs::remove(dir.parent_path(), ignored);  // once empty
 }
 
 }  // namespace
