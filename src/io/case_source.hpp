@@ -13,9 +13,15 @@
 
 namespace capsflow::io::detail {
 
-// Keeps what() on one line whatever a library's description contains.
+// Keeps what() on one line whatever a library's description contains, and short enough to
+// read: a 10 MB key or --set value is echoed by its two ends (the file name comes first,
+// the reason last).
 inline std::string one_line(std::string_view s) {
+  constexpr std::size_t kHead = 400, kTail = 400;
   std::string out(s);
+  if (out.size() > kHead + kTail + 100)
+    out = fmt::format("{} [... {} characters ...] {}", out.substr(0, kHead), out.size() - kHead - kTail,
+                      out.substr(out.size() - kTail));
   for (char& c : out)
     if (c == '\n' || c == '\r') c = ' ';
   return out;
@@ -32,7 +38,8 @@ inline std::string toml_string(std::string_view s) {
   std::string out = "\"";
   for (const char c : s) {
     if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) out += fmt::format("\\u{:04x}", static_cast<int>(c));
+    // Control characters, DEL included, are not allowed raw in a TOML string.
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) out += fmt::format("\\u{:04x}", static_cast<int>(c));
     else out += c;
   }
   return out + '"';

@@ -82,6 +82,13 @@ std::string check(const Input& in) {
   }
 }
 
+// A program cannot receive a NUL byte, or an argument above 128 KiB (execv fails): such
+// inputs are tried in-process only.
+bool passable(const Input& in) {
+  return std::all_of(in.sets.begin(), in.sets.end(),
+                     [](const std::string& s) { return s.find('\0') == std::string::npos && s.size() < 100'000; });
+}
+
 void keep_reproducer(const fs::path& dir, std::size_t i, const Input& in) {
   std::ofstream(dir / ("input_" + std::to_string(i) + ".toml"), std::ios::binary) << in.text;
   std::ofstream sets(dir / ("input_" + std::to_string(i) + ".sets"), std::ios::binary);
@@ -97,7 +104,7 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
   const fs::path dir = scratch("case");
   const std::size_t n = scaled(4000), through_binary = scaled(12);
   Tally tally, binary;
-  std::vector<Input> refused;
+  std::vector<Input> refused, valid;
   for (std::size_t i = 0; i < n; ++i) {
     const Case& base = m.pick(cases);
     Input in{base.text, {}};
@@ -115,14 +122,16 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (seconds > 2.0) outcome = "\n(took " + std::to_string(seconds) + " s)";
+    if (outcome.size() > 2000) outcome = "\n(an error line of " + std::to_string(outcome.size()) + " characters)";
     if (outcome.empty()) {
       ++tally.accepted;
+      if (valid.size() < 64 * through_binary && passable(in)) valid.push_back(std::move(in));
     } else if (outcome.find('\n') != std::string::npos) {
       keep_reproducer(dir, i, in);
       tally.findings.push_back("input " + std::to_string(i) + ": " + outcome);
     } else {
       tally.reject(outcome);
-      if (refused.size() < 64 * through_binary) refused.push_back(std::move(in));
+      if (refused.size() < 64 * through_binary && passable(in)) refused.push_back(std::move(in));
     }
   }
   tally.print("case files and --set, in-process");
@@ -138,8 +147,7 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
     fs::create_directories(run / "out");
     std::ofstream(run / "out" / "marker.txt") << "keep";
     std::vector<std::string> args{"run", (run / "case.toml").string(), "--quiet", "--out", (run / "out").string()};
-    for (const std::string& set : in.sets)
-      if (set.find('\0') == std::string::npos) args.push_back("--set=" + set);
+    for (const std::string& set : in.sets) args.push_back("--set=" + set);
     const Exit r = run_capsflow(args, run);
     ++binary.inputs;
     std::string problem = refusal_problem(r);
@@ -150,6 +158,36 @@ TEST(FuzzCase, ParserAndOverridesRefuseOrAccept) {
     EXPECT_EQ(problem, "") << "through the binary, case " << run / "case.toml";
   }
   binary.print("case files and --set, through the binary");
+
+#if !defined(__SANITIZE_ADDRESS__)  // (ASan needs terabytes of address space: no cap)
+  // A few accepted inputs through the binary for a few seconds each, with a capped address
+  // space: a run may finish (0), refuse (2, one line), fail (3) or still be running; it
+  // must not die of a signal or exit otherwise.
+  Tally running;
+  const std::size_t through_binary_valid = scaled(2);
+  for (std::size_t k = 0; k < through_binary_valid && !valid.empty(); ++k) {
+    const Input& in = valid[k * valid.size() / through_binary_valid];
+    const fs::path run = scratch("case_binary_valid");
+    std::ofstream(run / "case.toml", std::ios::binary) << in.text;
+    std::vector<std::string> args{"run", (run / "case.toml").string(), "--quiet", "--out", (run / "out").string()};
+    for (const std::string& set : in.sets) args.push_back("--set=" + set);
+    const Exit r = run_capsflow(args, run, std::chrono::seconds(3), rlim_t{4} << 30);
+    ++running.inputs;
+    std::string problem;
+    if (r.signal && !r.timed_out) problem = "killed by signal " + std::to_string(r.signal) + ": " + r.err;
+    else if (!r.timed_out && r.status != 0 && r.status != 2 && r.status != 3) problem = "exit status " + std::to_string(r.status);
+    else if (r.status == 2) problem = refusal_problem(r);
+    if (problem.empty()) ++running.accepted;
+    else running.findings.push_back(problem);
+    EXPECT_EQ(problem, "") << "an accepted case through the binary: " << run / "case.toml";
+    if (problem.empty()) fs::remove_all(run);
+  }
+  running.print("accepted case files and --set, run for up to 3 s through the binary");
+#endif
+  if (!HasFailure())  // (a failure keeps its reproducers)
+    for (const char* d : {"case", "case_binary", "case_binary_valid"}) fs::remove_all(dir.parent_path() / d);
+  std::error_code ignored;
+  fs::remove(dir.parent_path(), ignored);  // once empty
 }
 
 }  // namespace

@@ -114,6 +114,7 @@ TEST(FuzzCheckpoint, CorruptionIsRefusedOrHarmless) {
   tally.print("damaged checkpoints, in-process");
   std::printf("[fuzz] %zu of them damaged bytes nobody reads (restored exactly)\n", harmless);
   EXPECT_GT(tally.rejected, tally.inputs / 2);
+  if (!HasFailure()) fs::remove_all(dir);  // (a failure keeps the damaged files)
 }
 
 // Through the binary: a small cavity run with its final checkpoint, damaged copies
@@ -150,7 +151,8 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
   const fs::path dir = scratch("checkpoint_binary");
   std::ofstream(dir / "case.toml") << kCavity;
   const std::vector<std::string> run{"run", (dir / "case.toml").string(), "--quiet", "--set", "time.t_end=0.04"};
-  ASSERT_EQ(run_capsflow({"run", (dir / "case.toml").string(), "--quiet", "--out", (dir / "first").string()}, dir).status, 0);
+  const Exit first = run_capsflow({"run", (dir / "case.toml").string(), "--quiet", "--out", (dir / "first").string()}, dir);
+  ASSERT_EQ(first.status, 0) << first.err;
   const fs::path checkpoint = dir / "first" / "checkpoint_000002.h5";
   // Each restart continues in a copy of the first run's folder, as a user continues a run.
   auto restart = [&](const fs::path& file, const std::string& out) {
@@ -160,7 +162,8 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
       args.push_back(a);
     return run_capsflow(args, dir);
   };
-  ASSERT_EQ(restart(checkpoint, "clean").status, 0);
+  const Exit clean_run = restart(checkpoint, "clean");
+  ASSERT_EQ(clean_run.status, 0) << clean_run.err;
   const std::string clean = without_wall_clock(slurp(dir / "clean" / "diagnostics.csv"));
 
   const std::string bytes = slurp(checkpoint);
@@ -184,6 +187,9 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
     EXPECT_EQ(problem, "") << "damaged copy " << i;
   }
   tally.print("damaged checkpoints, through the binary");
+  if (!HasFailure()) fs::remove_all(dir);
+  std::error_code ignored;
+  fs::remove(dir.parent_path(), ignored);  // once empty
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 // a tally of outcomes for the closing summary, and running the capsflow binary with a
 // time limit on argument vectors (random bytes need no shell quoting).
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -75,13 +76,18 @@ struct Exit {
 };
 
 // Runs CAPSFLOW_BINARY with `args`, stdout to /dev/null, stderr captured; kills it after
-// `limit`.
+// `limit`. `memory` > 0 caps its address space (bytes), so an accepted input that asks for
+// a huge tree fails inside the child instead of swapping the machine.
 inline Exit run_capsflow(const std::vector<std::string>& args, const fs::path& dir,
-                         std::chrono::seconds limit = std::chrono::seconds(30)) {
+                         std::chrono::seconds limit = std::chrono::seconds(30), rlim_t memory = 0) {
   const fs::path err = dir / "stderr.txt";
   std::fflush(nullptr);  // the child must not print our buffered output again
   const pid_t pid = ::fork();
   if (pid == 0) {
+    if (memory > 0) {
+      const rlimit cap{memory, memory};
+      ::setrlimit(RLIMIT_AS, &cap);
+    }
     std::FILE* e = std::freopen(err.c_str(), "w", stderr);
     std::FILE* o = std::freopen("/dev/null", "w", stdout);
     (void)e;

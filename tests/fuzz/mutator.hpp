@@ -29,13 +29,14 @@ class Mutator {
         "2147483647", "2147483648", "-2147483649", "9223372036854775807", "-9223372036854775808",
         "99999999999999999999", "1e308", "1.7976931348623157e308", "-1e308", "1e-320", "4.9e-324", "1e400",
         "inf", "+inf", "-inf", "nan", "-nan", "+nan", "0.5", "-0.5", "1e-12", "\"\"", "\"\xc3\xa9t\xc3\xa9\"",
-        "\"\xe6\x97\xa5\xe6\x9c\xac\"", "\xc3\xbcn\xc3\xaf" "code", "\"\\u0000\"", "\"\\uD800\"", "\"a\\nb\"",
+        "\"\xe6\x97\xa5\xe6\x9c\xac\"", "\xc3\xbcn\xc3\xaf" "code", "\"\\u0000\"", "\"a\\u007fb\"", "\"\\u001b[31m\"", "\"\\uD800\"", "\"a\\nb\"",
         "\"\xf0\x9f\x92\xa5\"", "wall", "periodic", "skalak", "ellipsoid", "peskin4", "square_duct", "\"../..\"",
         "\"/proc/x\"", "[[1]]", "[nan, nan, nan]", "[1e308, 1e308, 1e308]", "[-1, -1, -1]", "[1000, 1000, 1000]",
         "[true, false]", "{ type = \"wall\" }", "{ type = \"periodic\" }", "{ type = \"inflow\" }",
         "{ type = \"moving_wall\", velocity = [1.0, 1.0] }", "'", "\"", "[", "{", "=", "0x10", "0o7", "0b11",
         "1_000", "1__0", "+1", "01", ".5", "5.", "1e", "--1", "\xff\xfe", "\x01"};
     if (chance(0.15)) return random_bytes(1 + below(6));
+    if (chance(0.01)) return std::string(1 + below(200000), "a[{\"1"[below(5)]);  // huge
     return pick(pool);
   }
 

@@ -50,6 +50,20 @@ std::string error_of(const std::string& text, std::span<const std::string> overr
 
 TEST(io_case_errors, TheBaseCaseIsValid) { EXPECT_NO_THROW((void)parse_case_text(std::string(kBase), "case.toml")); }
 
+// Found by the fuzz test: a 10 MB key or --set value made a 10 MB error line. Its two
+// ends are kept (the file first, the reason last).
+TEST(io_case_errors, HugeKeysAndValuesAreAbbreviated) {
+  const std::string key(1'000'000, 'k');
+  std::string message = error_of(std::string(kBase) + key + " = 1\n");
+  EXPECT_LT(message.size(), 1000u);
+  EXPECT_THAT(message, HasSubstr("characters ...]"));
+  EXPECT_THAT(message, ::testing::EndsWith(": unknown key"));
+  const std::vector<std::string> set{"fluid.Re=" + std::string(1'000'000, '[')};
+  message = error_of(std::string(kBase), set);
+  EXPECT_LT(message.size(), 1000u);
+  EXPECT_THAT(message, ::testing::StartsWith("case.toml: --set fluid.Re="));
+}
+
 TEST(io_case_errors, NegativeTimeStep) {
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ndt = -0.001\n"),
               HasSubstr("case.toml: time.dt = -0.001: must be > 0"));

@@ -141,6 +141,15 @@ TEST(io_case_parse, ToTomlKeepsAwkwardDoublesExactly) {
   EXPECT_EQ(back, c);
 }
 
+// Found by the fuzz test: a name with DEL (U+007F, "\u007f" in the file) was written raw
+// into case.toml, which then did not read back.
+TEST(io_case_parse, ToTomlEscapesControlCharacters) {
+  CaseConfig c = parse_case(kData / "cavity2d.toml");
+  c.name = std::string("del\x7f tab\t nul") + '\0' + " bell\x07";
+  const CaseConfig back = parse_case_text(to_toml(c), "written.toml");
+  EXPECT_EQ(back, c);
+}
+
 TEST(io_case_parse, TreeOptionsFollowTheDomain) {
   const CaseConfig c = parse_case(kData / "full.toml");
   const tree::TreeOptions<3> o = tree_options<3>(c);
