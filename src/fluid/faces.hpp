@@ -16,6 +16,7 @@
 #include <span>
 #include <vector>
 
+#include "common/assert.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::fluid {
@@ -24,6 +25,15 @@ using tree::Index;
 
 template <int D>
 using FaceField = std::array<std::vector<double>, D>;
+
+// Whether every component has one slot per cell of t (a face field kept across an adapt
+// must be resized with it).
+template <int D>
+bool spans_cells(const FaceField<D>& f, const tree::Tree<D>& t) {
+  for (const auto& v : f)
+    if (v.size() != static_cast<std::size_t>(t.num_cells())) return false;
+  return true;
+}
 
 template <int D>
 void resize(FaceField<D>& f, const tree::Tree<D>& t) {
@@ -57,6 +67,7 @@ void for_each_face(const tree::Tree<D>& t, F&& f) {
 template <int D>
 void restrict_faces(const tree::Tree<D>& t, FaceField<D>& uf) {
   constexpr int C = tree::kChildren<D>;
+  CAPSFLOW_ASSERT(spans_cells<D>(uf, t), "restrict_faces: the face field does not have the tree's num_cells slots");
   for (int l = 0; l < t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const Index n = lv.n_active, base = lv.base;
@@ -119,6 +130,8 @@ Index upper_face(const tree::Level<D>& lv, Index c, int d) {
 // div(uf) at the leaves: sum_d (uf_up - uf_low) / h.
 template <int D>
 void divergence(const tree::Tree<D>& t, const FaceField<D>& uf, std::span<double> div) {
+  CAPSFLOW_ASSERT(spans_cells<D>(uf, t) && div.size() == static_cast<std::size_t>(t.num_cells()),
+                  "divergence: a field does not have the tree's num_cells slots");
   for_each_leaf_level<D>(t, [&](Index c, int l, double h) {
     const tree::Level<D>& lv = t.level(l);
     const Index* row = lv.face_row(c);

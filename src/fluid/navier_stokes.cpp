@@ -102,6 +102,10 @@ double NavierStokes<D>::stable_dt() const {
 template <int D>
 StepStats NavierStokes<D>::step() {
   if (uf_[0].size() != static_cast<std::size_t>(tree_.num_cells())) resize_scratch();
+  // A step starts from a finite flow: a run stops at the first non-finite velocity (the
+  // app and the IBM coupling check after every step), so a NaN here is a caller that kept
+  // stepping a blown-up flow, or a bug that wrote one between steps (an adapt, a restart).
+  CAPSFLOW_ASSERT(leaves_finite(), "NavierStokes::step: the velocity or pressure entering the step is not finite");
   StepStats stats;
   const double dt = stable_dt();
   // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
@@ -171,6 +175,11 @@ template <int D>
 void NavierStokes<D>::acceleration(double dt) {
   for (auto& f : force_) std::fill(f.begin(), f.end(), 0.0);
   if (face_force_) face_force_(tree_, force_);
+  // The force enters the face velocities unchecked: a NaN would surface as a NaN pressure
+  // after the projection, far from its cause. (The IBM coupling checks its nodal forces.)
+  CAPSFLOW_ASSERT(spans_cells<D>(force_, tree_), "NavierStokes: the face force callback resized the force field");
+  CAPSFLOW_ASSERT(std::ranges::all_of(force_, [](const auto& f) { return std::ranges::all_of(f, [](double v) { return std::isfinite(v); }); }),
+                  "NavierStokes: the body force is not finite on every face");
   face_average_of_velocity(uf_);
   with_inverse_density([&](auto alpha, auto) {
     for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
@@ -236,6 +245,16 @@ void NavierStokes<D>::centred_gradient(double dt) {
       tree_.values(u_[d])[c] += dt * g;
     }
   });
+}
+
+template <int D>
+bool NavierStokes<D>::leaves_finite() const {
+  for (const Index c : tree_.leaves()) {
+    for (int d = 0; d < D; ++d)
+      if (!std::isfinite(tree_.values(u_[d])[c])) return false;
+    if (!std::isfinite(tree_.values(p_)[c])) return false;
+  }
+  return true;
 }
 
 template <int D>

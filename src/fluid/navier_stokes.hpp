@@ -130,6 +130,8 @@ class NavierStokes {
 
   // max |div uf| over the leaves after the last projection.
   double max_divergence();
+  // Whether velocity and pressure are finite on every leaf.
+  bool leaves_finite() const;
 
  private:
   void resize_scratch();

@@ -61,6 +61,8 @@ inline void spread(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3
 template <int D>
 void cell_to_face_force(const tree::Tree<D>& t, const std::array<std::vector<double>, D>& f,
                         fluid::FaceField<D>& faces, SpreadMode mode = SpreadMode::assign) {
+  CAPSFLOW_ASSERT(fluid::spans_cells<D>(f, t) && fluid::spans_cells<D>(faces, t),
+                  "cell_to_face_force: a field does not have the tree's num_cells slots");
   const double keep = mode == SpreadMode::add ? 1.0 : 0.0;
   fluid::for_each_face<D>(t, [&](int d, Index lo, Index hi, double, const tree::Level<D>&) {
     faces[d][hi] = keep * faces[d][hi] + 0.5 * (f[d][lo] + f[d][hi]);

@@ -86,12 +86,34 @@ int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, 
         cells[s] = fc + ((ijk[0] & 1) | ((ijk[1] & 1) << 1) | ((ijk[2] & 1) << 2));
         if (check_leaf && !fine.is_leaf(cells[s])) return s;
       }
+  CAPSFLOW_ASSERT(patch_is_the_stencil<W>(t, level, first, cells),
+                  fmt::format("ibm: find_patch on level {} from ({}, {}, {}) is not the stencil's cells", level, first[0],
+                              first[1], first[2]));
   return -1;
+}
+
+template <int W>
+bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const Index* cells) {
+  const auto& o = t.options();
+  const tree::Level<3>& lv = t.level(level);
+  for (int s = 0; s < W * W * W; ++s) {
+    tree::Coords<3> ijk{first[0] + s % W, first[1] + (s / W) % W, first[2] + s / (W * W)};
+    for (int d = 0; d < 3; ++d) {  // wrapped across periodic sides, as find_patch does
+      const auto n = static_cast<std::int32_t>(o.roots[d] << level);
+      if (o.periodic[d]) ijk[d] = ((ijk[d] % n) + n) % n;
+    }
+    if (!is_active_leaf(t, level, cells[s]) || tree::morton_decode<3>(lv.keys[cells[s] - lv.base]) != ijk)
+      return false;
+  }
+  return true;
 }
 
 template int find_patch<2>(const tree::Tree<3>&, int, const tree::Coords<3>&, Index*);
 template int find_patch<4>(const tree::Tree<3>&, int, const tree::Coords<3>&, Index*);
 template int find_patch<6>(const tree::Tree<3>&, int, const tree::Coords<3>&, Index*);
+template bool patch_is_the_stencil<2>(const tree::Tree<3>&, int, const tree::Coords<3>&, const Index*);
+template bool patch_is_the_stencil<4>(const tree::Tree<3>&, int, const tree::Coords<3>&, const Index*);
+template bool patch_is_the_stencil<6>(const tree::Tree<3>&, int, const tree::Coords<3>&, const Index*);
 
 void throw_missing_cell(const tree::Tree<3>& t, int level, const tree::Coords<3>& ijk, std::int64_t node,
                         const double* x, std::string_view operation, std::string_view kernel) {

@@ -24,6 +24,7 @@
 #include <string>
 #include <string_view>
 
+#include "common/assert.hpp"
 #include "ibm/kernels.hpp"
 #include "tree/tree.hpp"
 
@@ -41,6 +42,9 @@ template <Kernel K>
 [[nodiscard]] inline AxisStencil<K::kSupport> axis_stencil(double x, double origin, double h) {
   constexpr int W = K::kSupport;
   const double u = (x - origin) / h - 0.5;
+  // A NaN or huge coordinate would make the cast below undefined (UBSan does not check
+  // float casts): the coupling stops a run before a node moves to such a place.
+  CAPSFLOW_ASSERT(std::abs(u) < 1e9, "ibm: a membrane node's coordinate is not finite or far outside the tree");
   const double i0 = std::floor(u);
   const double r = u - i0;
   AxisStencil<W> a;
@@ -52,6 +56,7 @@ template <Kernel K>
   }
   double sum = 0.0;
   for (int k = 0; k < W; ++k) sum += a.w[k];
+  CAPSFLOW_ASSERT(sum > 0.0 && std::isfinite(sum), "ibm: the kernel's weights around a node do not sum to a positive value");
   const double inv = 1.0 / sum;
   for (int k = 0; k < W; ++k) a.w[k] *= inv;
   return a;
@@ -67,9 +72,16 @@ template <Kernel K>
 
 // Fills cells[i + W j + W^2 k] with the active leaf of `level` at first + (i, j, k)
 // (coordinates wrap across periodic sides). Returns -1 if all exist, else the first slot
-// whose cell is missing (then cells is partly filled).
+// whose cell is missing (then cells is partly filled). Checked builds assert that a
+// complete patch is the stencil (patch_is_the_stencil).
 template <int W>
 int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells);
+
+// Whether cells[] holds, for each stencil slot, an active leaf of `level` whose key
+// decodes to first + (i, j, k) (wrapped): the anchors and descents of find_patch are
+// shortcuts, the keys are the truth they must agree with.
+template <int W>
+bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const Index* cells);
 
 // Thrown when a stencil cell is missing; names the node, its position, the cell and why.
 class StencilError : public std::runtime_error {

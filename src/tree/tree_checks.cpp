@@ -2,6 +2,7 @@
 #include "tree/tree_checks.hpp"
 
 #include <cstdint>
+#include <vector>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -32,8 +33,11 @@ Coords<D> offset_coords(const Tree<D>& t, int l, Coords<D> c, const Offset<D>& o
 template <int D>
 std::string topology_violation(const Tree<D>& t) {
   constexpr int C = kChildren<D>;
+  std::vector<Coords<D>> coords;  // of the level's active and halo cells, decoded once
   for (int l = 0; l <= t.depth(); ++l) {
     const Level<D>& lv = t.level(l);
+    coords.resize(lv.keys.size());
+    for (std::size_t i = 0; i < lv.keys.size(); ++i) coords[i] = morton_decode<D>(lv.keys[i]);
     if (lv.keys.size() != static_cast<std::size_t>(lv.n_active + lv.n_halo) ||
         lv.first_child.size() != static_cast<std::size_t>(lv.size()) ||
         lv.leaf.size() != static_cast<std::size_t>(lv.n_active))
@@ -62,7 +66,7 @@ std::string topology_violation(const Tree<D>& t) {
             fine.halo_parent[(fc - fine.halo_begin()) / C] != c)
           return fmt::format("level {}: the children of leaf {} are not halo cells naming it", l, c);
       }
-      const Coords<D> cc = morton_decode<D>(key);
+      const Coords<D>& cc = coords[i];
       for (int s = 0; s < kStencil<D>; ++s) {
         bool outside = false;
         const Coords<D> want = offset_coords<D>(t, l, cc, kOffsets<D>[s], outside);
@@ -73,7 +77,7 @@ std::string topology_violation(const Tree<D>& t) {
           return fmt::format("level {}: neighbour slot {} of cell {} ({}) is {}a ghost, but its place is {} the brick",
                              l, s, c, fmt::join(cc, ", "), outside ? "not " : "", outside ? "outside" : "inside");
         if (outside) continue;  // ghost coordinates: unwrapped beyond the wall, checked by the tests
-        const Coords<D> got = morton_decode<D>(lv.keys[n - lv.base]);
+        const Coords<D>& got = coords[n - lv.base];
         if (got != want)
           return fmt::format("level {}: neighbour slot {} of cell {} ({}) is at ({}), not ({})", l, s, c,
                              fmt::join(cc, ", "), fmt::join(got, ", "), fmt::join(want, ", "));

@@ -1,5 +1,7 @@
 #include "fluid/multigrid/coefficients.hpp"
 
+#include "common/assert.hpp"
+
 namespace capsflow::fluid {
 
 namespace {
@@ -74,6 +76,8 @@ void face_coefficients(const tree::Tree<D>& t, std::span<const double> cells, Fa
                        std::vector<double>& out) {
   constexpr int F = 2 * D;
   constexpr int C = tree::kChildren<D>;
+  CAPSFLOW_ASSERT(cells.size() == static_cast<std::size_t>(t.num_cells()),
+                  "face_coefficients: the cell values do not have the tree's num_cells entries");
   out.assign(static_cast<std::size_t>(t.num_cells()) * F, 0.0);
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);

@@ -21,6 +21,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "common/assert.hpp"
 #include "fluid/multigrid/coefficients.hpp"
 #include "fluid/multigrid/multigrid_options.hpp"
 #include "tree/tree.hpp"
@@ -87,6 +88,8 @@ class EllipticOperator {
   // (the restriction a V-cycle starts from, done here while the group is in cache);
   // returns max |res| over the leaves (a synced).
   double residual(std::span<const double> a, std::span<const double> b, std::span<double> res) const {
+    CAPSFLOW_ASSERT(spans_cells(a) && spans_cells(b) && spans_cells(res),
+                    "EllipticOperator::residual: a field does not have the tree's num_cells entries");
     double worst = 0.0;
     // Spans captured by value: through references the loop reloads their data pointers
     // after every store.
@@ -99,6 +102,8 @@ class EllipticOperator {
 
   // out = L(a) on the leaves (a synced).
   void apply_leaves(std::span<const double> a, std::span<double> out) const {
+    CAPSFLOW_ASSERT(spans_cells(a) && spans_cells(out),
+                    "EllipticOperator::apply_leaves: a field does not have the tree's num_cells entries");
     double unused = 0.0;
     for_each_leaf_value<false>(a, [out](Index c, double la) {
       out[c] = la;
@@ -112,6 +117,9 @@ class EllipticOperator {
   // pass, which saves a pass over the finest level per cycle.
   void relax(int l, std::span<double> da, std::span<const double> res, int sweeps,
              const MultigridOptions& opt, std::span<double> scratch, std::span<double> corrected = {}) const {
+    CAPSFLOW_ASSERT(spans_cells(da) && spans_cells(res) && (corrected.empty() || spans_cells(corrected)) &&
+                        (opt.smoother != Smoother::jacobi || spans_cells(scratch)),
+                    "EllipticOperator::relax: a field does not have the tree's num_cells entries");
     const tree::Level<D>& lv = tree_.level(l);
     const Diagonal diag{tree_.cell_size(l) * tree_.cell_size(l), *this};
     // Level 0 (a few roots, not sibling groups) and a call without sweeps correct apart.
@@ -143,6 +151,8 @@ class EllipticOperator {
 
  private:
   static constexpr bool kConstantDiagonal = Alpha::kConstant && Lambda::kConstant;
+
+  bool spans_cells(std::span<const double> v) const { return v.size() == static_cast<std::size_t>(tree_.num_cells()); }
 
   // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
   // (the same on every cell of a level): a multiplication per update instead of a

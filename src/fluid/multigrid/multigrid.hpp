@@ -17,9 +17,11 @@
 // removed (compatibility) and the mean of a is fixed to zero.
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <span>
 #include <vector>
 
+#include "common/assert.hpp"
 #include "fluid/multigrid/multigrid_options.hpp"
 #include "tree/tree.hpp"
 
@@ -83,6 +85,15 @@ double leaf_max_abs(const tree::Tree<D>& t, std::span<const double> v) {
   return worst;
 }
 
+// Whether every span has one entry per cell of t (checked builds: fields passed to the
+// cycle after an adapt must have been resized with it).
+template <int D>
+bool spans_cells(const tree::Tree<D>& t, std::initializer_list<std::span<double>> fields) {
+  for (const auto& f : fields)
+    if (f.size() != static_cast<std::size_t>(t.num_cells())) return false;
+  return true;
+}
+
 // Makes r compatible for a singular operator (zero volume mean).
 template <int D>
 void remove_mean(const tree::Tree<D>& t, std::span<double> r) {
@@ -100,6 +111,8 @@ template <class Op>
 void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span<double> scratch,
             const MultigridOptions& opt, std::span<double> corrected = {}, bool restricted = false) {
   const auto& t = op.tree();
+  CAPSFLOW_ASSERT(detail::spans_cells(t, {res, da, scratch}) && (corrected.empty() || detail::spans_cells(t, {corrected})),
+                  "multigrid vcycle: a field does not have the tree's num_cells entries");
   if (!restricted)
     for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
   for (int l = 0; l <= t.depth(); ++l) {
@@ -120,6 +133,12 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
                      MultigridWorkspace& ws, const MultigridOptions& opt) {
   constexpr int D = Op::kDimension;
   const tree::Tree<D>& t = op.tree();
+  CAPSFLOW_ASSERT(detail::spans_cells(t, {a}) && b.size() == static_cast<std::size_t>(t.num_cells()),
+                  "multigrid solve: the solution or right-hand side does not have the tree's num_cells entries");
+  // A non-finite right-hand side is not asserted against: a flow that blows up within a
+  // step hands its solves NaN, and the run reports the blow-up after the step. The NaN
+  // residual then ends the loop after min_cycles (NaN > tolerance is false) and the solve
+  // reports not converged.
   ws.resize(t.num_cells(), opt.krylov);
   std::span<double> res = ws.residual, da = ws.correction, scratch = ws.scratch;
   const bool singular = op.singular();
