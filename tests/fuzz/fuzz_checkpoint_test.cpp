@@ -154,15 +154,18 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
   const Exit first = run_capsflow({"run", (dir / "case.toml").string(), "--quiet", "--out", (dir / "first").string()}, dir);
   ASSERT_EQ(first.status, 0) << first.err;
   const fs::path checkpoint = dir / "first" / "checkpoint_000002.h5";
-  // Each restart continues in a copy of the first run's folder, as a user continues a run.
-  auto restart = [&](const fs::path& file, const std::string& out) {
+  // Each restart continues in a copy of the first run's folder from the copy's own checkpoint,
+  // as a user continues a run (a restart into a folder that holds another run is refused).
+  auto restart = [&](const std::string* damaged, const std::string& out) {
     fs::copy(dir / "first", dir / out, fs::copy_options::recursive);
+    const fs::path file = dir / out / checkpoint.filename();
+    if (damaged) std::ofstream(file, std::ios::binary | std::ios::trunc) << *damaged;
     std::vector<std::string> args = run;
     for (const std::string& a : {std::string("--out"), (dir / out).string(), std::string("--restart"), file.string()})
       args.push_back(a);
     return run_capsflow(args, dir);
   };
-  const Exit clean_run = restart(checkpoint, "clean");
+  const Exit clean_run = restart(nullptr, "clean");
   ASSERT_EQ(clean_run.status, 0) << clean_run.err;
   const std::string clean = without_wall_clock(slurp(dir / "clean" / "diagnostics.csv"));
 
@@ -170,10 +173,9 @@ TEST(FuzzCheckpoint, DamagedRestartsThroughTheBinary) {
   Mutator m(seed(20261125));
   Tally tally;
   for (std::size_t i = 0; i < scaled(6); ++i) {
-    const fs::path bad = dir / "bad.h5";
-    std::ofstream(bad, std::ios::binary | std::ios::trunc) << corrupt(m, bytes);
+    const std::string damaged = corrupt(m, bytes);
     const std::string out = "out_" + std::to_string(i);
-    const Exit r = restart(bad, out);
+    const Exit r = restart(&damaged, out);
     ++tally.inputs;
     std::string problem;
     if (r.status == 0) {
