@@ -6,6 +6,9 @@
 #include <fstream>
 #include <stdexcept>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include "app/output_dir.hpp"
@@ -73,6 +76,17 @@ MemoryEstimate estimate_memory(const io::CaseConfig& c) {
   return e;
 }
 
+// What `ulimit -v` (RLIMIT_AS) leaves of the address space: the limit minus what the process
+// has mapped already (VmSize, first field of /proc/self/statm, in pages). None when unlimited.
+std::optional<double> address_space_left() {
+  rlimit r{};
+  if (getrlimit(RLIMIT_AS, &r) != 0 || r.rlim_cur == RLIM_INFINITY) return std::nullopt;
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0.0;
+  if (!(statm >> pages)) return std::nullopt;
+  return std::max(0.0, double(r.rlim_cur) - pages * double(sysconf(_SC_PAGESIZE)));
+}
+
 std::optional<double> available_memory() {
   const auto mem = meminfo_available();
   const auto group = cgroup_available();
@@ -116,6 +130,8 @@ void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, c
     over = fmt::format("--max-memory {}", human(double(*limit)));
   else if (available && e.bytes > *available)
     over = fmt::format("the available memory, {}", human(*available));
+  else if (const auto left = address_space_left(); left && e.bytes - kFixedBytes > *left)
+    over = fmt::format("what the address-space limit (ulimit -v) leaves, {}", human(*left));
   if (over.empty()) return;
   throw RequestError(
       fmt::format("{}: memory estimate {} ({:.3g} cells on levels 0 to {} of the tree{}) exceeds {}; lower "

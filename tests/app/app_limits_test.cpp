@@ -51,15 +51,18 @@ TEST(AppLimits, MemoryBombsAreRefusedWithTheEstimate) {
   EXPECT_THAT(bad.err, HasSubstr("--max-memory"));
 }
 
-// A run that passes the estimate but still runs out (here under a 400 MB address-space
-// limit) says so, with status 3, instead of "std::bad_alloc".
+// A run that passes the estimate but still runs out says so, with status 3, instead of
+// "std::bad_alloc": an adaptive run (the estimate counts its coarsest grid) refining one
+// level per step everywhere (a tolerance nothing meets) under a 400 MB address-space limit.
 TEST(AppLimits, OutOfMemoryIsReported) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
 #endif
   const fs::path dir = scratch("oom");
   const std::string cmd = "ulimit -v 400000; OMP_NUM_THREADS=1 " + std::string(CAPSFLOW_BINARY) + " " +
-                          cavity("--adapt off --set adapt.max_level=11 --out " + (dir / "out").string()) +
+                          cavity("--set adapt.min_level=7 --set adapt.max_level=11 --set adapt.interval=1 "
+                                 "--set adapt.velocity_tolerance=1e-12 --out " +
+                                 (dir / "out").string()) +
                           " 2> " + (dir / "err.txt").string();
   const int raw = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(raw));
@@ -67,6 +70,25 @@ TEST(AppLimits, OutOfMemoryIsReported) {
   const std::string err = slurp(dir / "err.txt");
   EXPECT_THAT(err, StartsWith("capsflow: out of memory"));
   EXPECT_EQ(lines(err), 1) << err;
+}
+
+// The address-space limit (ulimit -v) counts as a memory limit: a uniform grid that cannot
+// fit under it is refused up front (status 2, the estimate), not after minutes of work.
+TEST(AppLimits, AddressSpaceLimitRefusesUpFront) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+#endif
+  const fs::path dir = scratch("ulimit");
+  const std::string cmd = "ulimit -v 400000; OMP_NUM_THREADS=1 " + std::string(CAPSFLOW_BINARY) + " " +
+                          cavity("--adapt off --set adapt.max_level=11 --out " + (dir / "out").string()) +
+                          " 2> " + (dir / "err.txt").string();
+  const int raw = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(raw));
+  EXPECT_EQ(WEXITSTATUS(raw), 2);
+  const std::string err = slurp(dir / "err.txt");
+  EXPECT_THAT(err, HasSubstr("ulimit -v"));
+  EXPECT_EQ(lines(err), 1) << err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
 // Starts capsflow in the background (one thread, stderr to a file); returns its pid.
