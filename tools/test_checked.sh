@@ -19,6 +19,6 @@ cmake -S . -B build-checked -G Ninja "${launcher[@]}" \
   -DCAPSFLOW_CHECKED=ON -DCAPSFLOW_ASAN=ON -DCAPSFLOW_BUILD_BENCH=OFF
 cmake --build build-checked -j "$(nproc)"
 # A sanitizer report stops the test that made it (UBSan too: -fno-sanitize-recover).
-export ASAN_OPTIONS="${ASAN_OPTIONS:-abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1}"
+export ASAN_OPTIONS="${ASAN_OPTIONS:-abort_on_error=1:strict_string_checks=1}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 ctest --test-dir build-checked --output-on-failure -j "$(nproc)" --label-exclude long

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <cstdio>
 #include <random>
 
@@ -193,6 +194,23 @@ TEST(Multigrid, ReductionPerCycle) {
   Tree<3> t3a = adaptive<3>(6, false);
   (void)solve_error<3>(t3a, m, {}, &stats, 1e-8);
   EXPECT_LE(stats.mean_reduction(5), 0.3) << "adaptive 3D";
+}
+
+// A flow that blows up within a step hands its solves a NaN right-hand side (the run
+// reports the blow-up after the step): the solve must neither assert nor cycle, and must
+// report not converged. It used to report convergence: the residual's maximum dropped the
+// NaN (std::max(w, NaN) is w).
+TEST(Multigrid, NonFiniteRightHandSideStopsAndReportsNotConverged) {
+  Tree<2> t({.roots = {1, 1}, .max_level = 5});
+  t.refine_to([](const tree::Box<2>& b) { return b.lo[0] < 0.5 ? 5 : 4; });
+  std::vector<double> a(t.num_cells(), 0.0), b(t.num_cells(), 1.0);
+  b[t.leaves()[t.num_leaves() / 2]] = std::nan("");
+  EllipticOperator<2> op(t, ConstantFaces{1.0}, ZeroCells{}, BoundaryConditions<2>::all(BcKind::dirichlet));
+  MultigridWorkspace ws;
+  const MultigridStats stats = solve(op, a, b, ws, {.tolerance = 1e-8, .min_cycles = 2, .max_cycles = 60});
+  EXPECT_FALSE(stats.converged);
+  EXPECT_EQ(stats.cycles, 0);
+  EXPECT_EQ(stats.final_residual, std::numeric_limits<double>::infinity());
 }
 
 }  // namespace

@@ -95,7 +95,7 @@ class EllipticOperator {
     // after every store.
     for_each_leaf_value<true>(a, [res, b](Index c, double la) {
       res[c] = b[c] - la;
-      return std::abs(res[c]);
+      return abs_or_infinity(res[c]);
     }, worst, res);
     return worst;
   }

@@ -81,7 +81,7 @@ double leaf_max_abs(const tree::Tree<D>& t, std::span<const double> v) {
   const auto leaves = t.leaves();
   const auto n = static_cast<tree::Index>(leaves.size());
 #pragma omp parallel for schedule(static) reduction(max : worst) if (n > tree::kParallelMin)
-  for (tree::Index i = 0; i < n; ++i) worst = std::max(worst, std::abs(v[leaves[i]]));
+  for (tree::Index i = 0; i < n; ++i) worst = std::max(worst, abs_or_infinity(v[leaves[i]]));
   return worst;
 }
 
@@ -136,9 +136,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   CAPSFLOW_ASSERT(detail::spans_cells(t, {a}) && b.size() == static_cast<std::size_t>(t.num_cells()),
                   "multigrid solve: the solution or right-hand side does not have the tree's num_cells entries");
   // A non-finite right-hand side is not asserted against: a flow that blows up within a
-  // step hands its solves NaN, and the run reports the blow-up after the step. The NaN
-  // residual then ends the loop after min_cycles (NaN > tolerance is false) and the solve
-  // reports not converged.
+  // step hands its solves NaN, and the run reports the blow-up after the step. The
+  // residual is then infinite (abs_or_infinity), no cycle runs, and the solve reports
+  // not converged.
   ws.resize(t.num_cells(), opt.krylov);
   std::span<double> res = ws.residual, da = ws.correction, scratch = ws.scratch;
   const bool singular = op.singular();
@@ -167,7 +167,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   // Krylov state: previous direction p, its image q = L0 p, and <p, q>.
   std::span<double> p = ws.direction, q = ws.operated;
   double pq_old = 0.0;
-  while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance)) {
+  // No cycle can repair a non-finite residual: stop at once.
+  while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance) &&
+         std::isfinite(current)) {
     if (!opt.krylov) {
       vcycle(op, res, da, scratch, opt, a, restricted);  // a += da
     } else {

@@ -1,11 +1,21 @@
 #pragma once
 // Options and statistics of the multigrid solver (plain values; the caller decides what a
 // failure to converge means).
+#include <cmath>
+#include <limits>
 #include <vector>
 
 namespace capsflow::fluid {
 
 enum class Smoother { red_black, jacobi };
+
+// |x|, but +infinity for a NaN: the maximum of a residual must not drop a NaN (std::max
+// and the OpenMP max reduction ignore one that comes second), else a solve fed NaN
+// reports a finite residual, even convergence.
+inline double abs_or_infinity(double x) {
+  const double r = std::abs(x);
+  return r <= std::numeric_limits<double>::max() ? r : std::numeric_limits<double>::infinity();
+}
 
 struct MultigridOptions {
   double tolerance = 1e-3;  // on max |b - L(a)| over the leaves (Basilisk's default)
