@@ -66,7 +66,12 @@ struct [[nodiscard]] StepStats {
   int prediction_cycles = 0;
   int viscous_cycles = 0;
   bool converged = true;  // every solve reached its tolerance
+  int unconverged = 0;    // solves that stopped at max_cycles above their tolerance
   int cycles() const { return projection_cycles + prediction_cycles + viscous_cycles; }
+  void count_solve(bool solve_converged) {
+    converged = converged && solve_converged;
+    if (!solve_converged) ++unconverged;
+  }
 };
 
 template <int D>
@@ -134,7 +139,7 @@ class NavierStokes {
  private:
   void resize_scratch();
   void sync_velocity();
-  int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, bool& converged);
+  int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);
   void centred_gradient(double dt);
   MultigridStats variable_viscous_solve(int d, double dt, double theta);

@@ -51,6 +51,9 @@ struct BoundaryConfig {
 struct MultigridConfig {
   double tolerance = 1e-3;  // residual (max norm) that ends the cycles
   int max_cycles = 50;
+  // A solve that stops at max_cycles above its tolerance: false counts it (the diagnostics'
+  // mg_unconverged, a warning on stderr the first time), true also stops the run (exit 3).
+  bool fail_on_unconverged = false;
   bool operator==(const MultigridConfig&) const = default;
 };
 

@@ -82,6 +82,7 @@ void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig
     TableReader m(*mg, r.key_path("multigrid"), r.source());
     m.read("tolerance", f.multigrid.tolerance);
     m.read("max_cycles", f.multigrid.max_cycles);
+    m.read("fail_on_unconverged", f.multigrid.fail_on_unconverged);
     m.finish();
   }
   const toml::table empty;

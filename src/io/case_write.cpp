@@ -65,6 +65,7 @@ std::string to_toml(const CaseConfig& c) {
   out += "\n[fluid.multigrid]\n";
   line("tolerance", toml_number(c.fluid.multigrid.tolerance));
   line("max_cycles", fmt::format("{}", c.fluid.multigrid.max_cycles));
+  line("fail_on_unconverged", b(c.fluid.multigrid.fail_on_unconverged));
   out += "\n[fluid.boundary]\n";
   for (int s = 0; s < 2 * n; ++s) line(detail::kSideNames[s], side_repr(c.fluid.boundary[s], n));
 
