@@ -38,14 +38,16 @@ bool patch_exists(const tree::Tree<3>& t, int level, const std::array<std::int32
   return find_patch<W>(t, level, first, cells) < 0;
 }
 
-bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x) {
+// On cell centres, or (staggered) on the faces of each component.
+bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x, bool staggered) {
   return with_kernel(kind, [&]<Kernel K>(K) {
     const int level = t.max_level();
     const double h = t.cell_size(level);
-    for (Eigen::Index i = 0; i < x.cols(); ++i) {
-      const auto st = node_stencil<K>(t.options(), h, &x(0, i));
-      if (!patch_exists<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first})) return false;
-    }
+    for (Eigen::Index i = 0; i < x.cols(); ++i)
+      for (int axis = staggered ? 0 : -1; axis < (staggered ? 3 : 0); ++axis) {
+        const auto st = node_stencil<K>(t.options(), h, &x(0, i), axis);
+        if (!patch_exists<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first})) return false;
+      }
     return true;
   });
 }
@@ -60,7 +62,12 @@ CapsuleCoupling::CapsuleCoupling(fluid::NavierStokes<3>& ns, int margin) : ns_(n
     if (background_) background_(t, faces);
     if (!force_ready_) return;
     const auto t0 = Clock::now();
-    cell_to_face_force<3>(t, force_, faces, background_ ? SpreadMode::add : SpreadMode::assign);
+    bool add = static_cast<bool>(background_);
+    if (any_cells_ || !any_faces_) {
+      cell_to_face_force<3>(t, force_, faces, add ? SpreadMode::add : SpreadMode::assign);
+      add = true;
+    }
+    if (any_faces_) add_face_force<3>(t, face_force_, faces, add ? SpreadMode::add : SpreadMode::assign);
     face_seconds_ += seconds_since(t0);
   });
 }
@@ -109,7 +116,8 @@ void CapsuleCoupling::update_region() {
 bool CapsuleCoupling::stencils_ready() const {
   const tree::Tree<3>& t = ns_.tree();
   return std::all_of(capsules_.begin(), capsules_.end(), [&](const Capsule& c) {
-    return node_stencils_exist(t, c.kernels.spread, c.x) && node_stencils_exist(t, c.kernels.interpolate, c.x);
+    return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered) &&
+           node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered);
   });
 }
 
@@ -148,16 +156,24 @@ void CapsuleCoupling::compute_forces(int step) {
 void CapsuleCoupling::spread_forces(int step) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
+  any_cells_ = any_faces_ = false;
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
+    bool& started = c.kernels.staggered ? any_faces_ : any_cells_;
+    const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
-      spread(c.kernels.spread, t, c.x, c.forces, force_, workspace_, k == 0 ? SpreadMode::assign : SpreadMode::add);
+      if (c.kernels.staggered) spread_faces(c.kernels.spread, t, c.x, c.forces, face_force_, workspace_, mode);
+      else spread(c.kernels.spread, t, c.x, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
     }
+    started = true;
   }
-  if (capsules_.empty())
-    for (auto& f : force_) f.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
+  const auto cells = static_cast<std::size_t>(t.num_cells());
+  if (!any_cells_)
+    for (auto& f : force_) f.assign(cells, 0.0);
+  if (!any_faces_)
+    for (auto& f : face_force_) f.assign(cells, 0.0);
   force_ready_ = true;
   times_.spreading += seconds_since(t0);
 }
@@ -170,7 +186,8 @@ void CapsuleCoupling::move_nodes(int step, double dt) {
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
     try {
-      interpolate(c.kernels.interpolate, t, u, c.x, c.velocity);
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, ns_.face_velocity(), c.x, c.velocity);
+      else interpolate(c.kernels.interpolate, t, u, c.x, c.velocity);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
     }

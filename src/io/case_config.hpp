@@ -97,6 +97,7 @@ struct CapsuleConfig {
   double inflation = 1.0;                   // inflated: initial radius / radius
   KernelType spread_kernel = KernelType::cosine;
   KernelType interp_kernel = KernelType::hat;
+  bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
   bool operator==(const CapsuleConfig&) const = default;
 };
 

@@ -116,6 +116,7 @@ CapsuleConfig parse_capsule(TableReader r) {
   r.read("inflation", c.inflation);
   r.read("spread_kernel", c.spread_kernel, detail::kKernelTypes);
   r.read("interp_kernel", c.interp_kernel, detail::kKernelTypes);
+  r.read("staggered", c.staggered);
   r.finish();
   return c;
 }

@@ -94,6 +94,7 @@ std::string to_toml(const CaseConfig& c) {
     line("inflation", toml_number(cap.inflation));
     line("spread_kernel", toml_string(to_string(cap.spread_kernel)));
     line("interp_kernel", toml_string(to_string(cap.interp_kernel)));
+    line("staggered", b(cap.staggered));
   }
 
   out += "\n[time]\n";

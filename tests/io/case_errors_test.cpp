@@ -234,9 +234,12 @@ TEST(io_case_errors, CapsuleWithinTheKernelsReachOfAWall) {
   const std::string capsule = std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [0, 0.46, 0]\n";
   const std::string e = error_of(capsule);
   EXPECT_THAT(e, HasSubstr("capsule[0].centre = [0.0, 0.46, 0.0]: the capsule is 0.04 from a side along y, "
-                           "within its kernels' reach (0.04688"));
-  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45"), "c"));
-  // The hat kernel alone reaches half a cell.
+                           "within its kernels' reach (0.0625"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.43"), "c"));
+  // Staggered stencils reach W/2 cells, the cell-centred ones (W - 1)/2.
+  EXPECT_THAT(error_of(replace(capsule, "0.46", "0.45")), HasSubstr("within its kernels' reach (0.0625"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45") + "staggered = false\n", "c"));
+  // The hat kernel alone reaches one cell.
   EXPECT_NO_THROW((void)parse_case_text(capsule + "spread_kernel = \"hat\"\n", "c"));
   // Along a periodic direction there is no side to reach.
   EXPECT_NO_THROW((void)parse_case_text(std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [-3.5, 0, 0]\n", "c"));
