@@ -178,13 +178,15 @@ void CapsuleCoupling::spread_forces(int step) {
   times_.spreading += seconds_since(t0);
 }
 
-void CapsuleCoupling::move_nodes(int step, double dt) {
+void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
   const auto& o = t.options();
+  motion_.resize(capsules_.size());
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
+    std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
       if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, ns_.face_velocity(), c.x, c.velocity);
       else interpolate(c.kernels.interpolate, t, u, c.x, c.velocity);
@@ -194,17 +196,25 @@ void CapsuleCoupling::move_nodes(int step, double dt) {
     Eigen::Index bad = 0;
     if (!all_finite(c.velocity, bad))
       fail(step, fmt::format("capsule {}: the velocity of node {} is not finite", k, bad));
+    // AB2 with a variable step (Euler on the first step, or without V^(n-1)).
+    Eigen::Matrix3Xd& m = motion_[k];
+    if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
+      const double r = dt / previous_dt;
+      m = (1.0 + 0.5 * r) * c.velocity - (0.5 * r) * c.previous_velocity;
+    } else {
+      m = c.velocity;
+    }
     // Check every new position before committing any: a failure keeps the last good X.
     for (Eigen::Index i = 0; i < c.x.cols(); ++i)
       for (int d = 0; d < 3; ++d) {
-        const double xn = c.x(d, i) + dt * c.velocity(d, i);
+        const double xn = c.x(d, i) + dt * m(d, i);
         const double lo = o.origin[d], hi = lo + o.roots[d] * o.root_size;
         if (!o.periodic[d] && !(xn > lo && xn < hi))
           fail(step, fmt::format("capsule {}: node {} would leave the domain: {} = {:.6g} outside [{}, {}]", k, i,
                                  "xyz"[d], xn, lo, hi));
       }
   }
-  for (Capsule& c : capsules_) c.x += dt * c.velocity;
+  for (int k = 0; k < num_capsules(); ++k) capsules_[k].x += dt * motion_[k];
   times_.interpolation += seconds_since(t0);
 }
 
@@ -222,10 +232,11 @@ CouplingStep CapsuleCoupling::step() {
     throw;
   }
   force_ready_ = false;
+  const double previous_dt = last_dt_;
   last_dt_ = out.fluid.dt;
   times_.fluid += seconds_since(t0) - face_seconds_;
   times_.spreading += face_seconds_;
-  move_nodes(step, out.fluid.dt);
+  move_nodes(step, out.fluid.dt, previous_dt);
   ++steps_;
   ++since_adapt_;
   return out;

@@ -6,7 +6,9 @@
 //                                                           (spread.hpp, spread_faces)
 //   3. one step of the flow solver with f: u(t) -> u(t + dt) (fluid/, explicit coupling)
 //   4. V_d = sum_faces uf_d(t + dt) delta_l(x_f - X)        (interpolate.hpp, faces)
-//   5. X(t + dt) = X(t) + dt V                               (forward Euler, as the seed)
+//   5. X(t + dt) = X(t) + dt V^n                             (forward Euler, as the seed)
+//      or, with NodeScheme::ab2, X(t + dt) = X(t) + dt ((1 + r/2) V^n - (r/2) V^(n-1)),
+//      r = dt / dt_prev (Adams-Bashforth 2; its first step is Euler)
 // Stages 2 and 4 work on the MAC faces (KernelChoice::staggered, the default): the projection
 // makes the face velocity uf divergence-free to its tolerance, the cell-centred u only
 // approximately, and nodes moved with the cell velocity let closed membranes gain volume
@@ -17,6 +19,12 @@
 // then the run's adapt stage (fluid/adaptation.hpp), the same for runs without capsules:
 // velocity wavelets, walls at their level, and the membrane bands at the max level that this
 // class provides as a fluid::BodyRefinement, so that the next step's stencils exist.
+// V^n is interpolated from u(t + dt) at X(t). AB2 would make stage 5 second order if V^n
+// were the velocity of the configuration X(t); but the flow step itself is first order in
+// the force (f(X(t)) drives u from t to t + dt), and on the relaxing capsule at Re = 1
+// both schemes measured first order (ibm_long_tests TimeOrder: AB2 1.22, Euler 1.29, with
+// AB2's errors twice Euler's; docs/numerics.md). AB2's stability interval on the negative
+// real axis is half of Euler's, so Euler stays the default.
 // The coupling is explicit, so dt is bounded by the membrane's stiffness: a node's
 // relaxation time on the fluid grid is about mu dx / Gs = Ca dx (below), and steps much
 // longer than that make the membrane oscillate and blow up. Blow-up is detected (non-finite
@@ -56,7 +64,8 @@ struct Capsule {
   Eigen::Matrix3Xd x;         // node positions X
   KernelChoice kernels{};
   Eigen::Matrix3Xd forces;    // F(X(t)) of the last step
-  Eigen::Matrix3Xd velocity;  // V of the last step
+  Eigen::Matrix3Xd velocity;  // V of the last step (V^(n-1) of the next one's AB2)
+  Eigen::Matrix3Xd previous_velocity;  // V of the step before (scratch of move_nodes)
   Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (may_wait)
   double energy = 0.0;        // E(X(t)) of the last step
   MembraneTags tags;
@@ -69,6 +78,9 @@ struct StageTimes {
   double fluid = 0.0;          // the flow step (without the face force)
   double interpolation = 0.0;  // velocities and the position update
 };
+
+// How stage 5 moves the nodes.
+enum class NodeScheme : unsigned char { euler, ab2 };
 
 struct [[nodiscard]] CouplingStep {
   fluid::StepStats fluid;
@@ -116,6 +128,12 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // restarted run adapts when the uninterrupted one would.
   [[nodiscard]] std::int64_t steps_since_adapt() const { return since_adapt_; }
   void set_steps_since_adapt(std::int64_t n) { since_adapt_ = n; }
+  [[nodiscard]] NodeScheme node_scheme() const { return scheme_; }
+  void set_node_scheme(NodeScheme s) { scheme_ = s; }
+  // dt of the last step (0 before the first: that step is Euler). A checkpoint keeps it with
+  // each capsule's velocity, so that a restarted run takes the same AB2 steps.
+  [[nodiscard]] double last_dt() const { return last_dt_; }
+  void set_last_dt(double dt) { last_dt_ = dt; }
   [[nodiscard]] const StageTimes& times() const { return times_; }
   // The spread force of the capsules with staggered = false, on cells (zero if none).
   [[nodiscard]] const CellVector& cell_force() const { return force_; }
@@ -128,7 +146,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
  private:
   void compute_forces(int step);
   void spread_forces(int step);
-  void move_nodes(int step, double dt);
+  void move_nodes(int step, double dt, double previous_dt);
   // Throws std::runtime_error naming the step and time; `unstable` adds the likely cause
   // of a blow-up (stencil errors carry their own).
   [[noreturn]] void fail(int step, const std::string& what, bool unstable = true) const;
@@ -146,6 +164,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   StageTimes times_;
   double face_seconds_ = 0.0;  // face-force time inside the last fluid step
   double last_dt_ = 0.0;       // of the last fluid step (0 before the first)
+  NodeScheme scheme_ = NodeScheme::euler;
+  std::vector<Eigen::Matrix3Xd> motion_;  // per capsule: the node velocity of stage 5
   fluid::NavierStokes<3>::FaceForce background_;
 };
 
