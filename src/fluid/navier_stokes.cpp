@@ -214,6 +214,7 @@ template <int D>
 void NavierStokes<D>::projection(double dt, StepStats& stats) {
   stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats);
   centred_gradient(dt);
+  faces_current_ = true;
 }
 
 template <int D>
@@ -266,6 +267,7 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
   for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
   const auto counts = tree_.adapt(opt);
   resize_scratch();
+  faces_current_ = false;
   return counts;
 }
 

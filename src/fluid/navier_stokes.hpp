@@ -92,6 +92,9 @@ class NavierStokes {
   std::span<double> u(int d) { return tree_.values(u_[d]); }
   std::span<double> p() { return tree_.values(p_); }
   const FaceField<D>& face_velocity() const { return uf_; }
+  // Whether face_velocity() is the projected face velocity of the current u: true after a
+  // step, false before the first one and after adapt() (which resets the faces).
+  bool face_velocity_current() const { return faces_current_; }
 
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.
@@ -169,6 +172,7 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   double rho_min_ = 1.0;                        // scales the viscous tolerance
+  bool faces_current_ = false;                  // face_velocity_current()
 };
 
 extern template class NavierStokes<2>;

@@ -142,7 +142,7 @@ void CapsuleCoupling::compute_forces(int step) {
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
     try {
-      c.energy = c.model.compute_forces(c.x, c.forces);
+      c.energy = c.model.compute_forces(stage_positions(c), c.forces);
     } catch (const membrane::ElementError& e) {
       fail(step, fmt::format("capsule {}: element {} is inverted or collapsed ({})", k, e.element(), e.what()));
     }
@@ -162,8 +162,9 @@ void CapsuleCoupling::spread_forces(int step) {
     bool& started = c.kernels.staggered ? any_faces_ : any_cells_;
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
-      if (c.kernels.staggered) spread_faces(c.kernels.spread, t, c.x, c.forces, face_force_, workspace_, mode);
-      else spread(c.kernels.spread, t, c.x, c.forces, force_, workspace_, mode);
+      const Eigen::Matrix3Xd& at = stage_positions(c);
+      if (c.kernels.staggered) spread_faces(c.kernels.spread, t, at, c.forces, face_force_, workspace_, mode);
+      else spread(c.kernels.spread, t, at, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
     }
@@ -188,8 +189,9 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
     Capsule& c = capsules_[k];
     std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
-      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, ns_.face_velocity(), c.x, c.velocity);
-      else interpolate(c.kernels.interpolate, t, u, c.x, c.velocity);
+      const Eigen::Matrix3Xd& at = stage_positions(c);
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, ns_.face_velocity(), at, c.velocity);
+      else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
     }
@@ -198,7 +200,9 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
       fail(step, fmt::format("capsule {}: the velocity of node {} is not finite", k, bad));
     // AB2 with a variable step (Euler on the first step, or without V^(n-1)).
     Eigen::Matrix3Xd& m = motion_[k];
-    if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
+    if (scheme_ == NodeScheme::midpoint) {
+      m = 0.5 * (c.start_velocity + c.velocity);
+    } else if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
       const double r = dt / previous_dt;
       m = (1.0 + 0.5 * r) * c.velocity - (0.5 * r) * c.previous_velocity;
     } else {
@@ -218,9 +222,40 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
   times_.interpolation += seconds_since(t0);
 }
 
+void CapsuleCoupling::predict_midpoint(int step) {
+  const auto t0 = Clock::now();
+  const tree::Tree<3>& t = ns_.tree();
+  const double dt = ns_.stable_dt();
+  // u^n on faces: the last projection's, or after an adaptation (which resets them) the face
+  // mean of the cell velocity.
+  const fluid::FaceField<3>* faces = &ns_.face_velocity();
+  if (!ns_.face_velocity_current()) {
+    fluid::resize<3>(start_faces_, t);
+    const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+    fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
+      start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
+    });
+    faces = &start_faces_;
+  }
+  const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+  for (int k = 0; k < num_capsules(); ++k) {
+    Capsule& c = capsules_[k];
+    c.x_mid = c.x;
+    if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
+    try {
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, *faces, c.x_mid, c.start_velocity);
+      else interpolate(c.kernels.interpolate, t, u, c.x_mid, c.start_velocity);
+    } catch (const StencilError& e) {
+      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+    }
+  }
+  times_.interpolation += seconds_since(t0);
+}
+
 CouplingStep CapsuleCoupling::step() {
   const int step = static_cast<int>(steps_ + 1);
   CouplingStep out;
+  if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);
   compute_forces(step);
   spread_forces(step);
   face_seconds_ = 0.0;

@@ -8,7 +8,13 @@
 //   4. V_d = sum_faces uf_d(t + dt) delta_l(x_f - X)        (interpolate.hpp, faces)
 //   5. X(t + dt) = X(t) + dt V^n                             (forward Euler, as the seed)
 //      or, with NodeScheme::ab2, X(t + dt) = X(t) + dt ((1 + r/2) V^n - (r/2) V^(n-1)),
-//      r = dt / dt_prev (Adams-Bashforth 2; its first step is Euler)
+//      r = dt / dt_prev (Adams-Bashforth 2; its first step is Euler),
+//      or, with NodeScheme::midpoint, stages 1, 2 and 4 at X* = X(t) + (dt/2) V^(n-1) and
+//      X(t + dt) = X(t) + dt (J(X*) u(t) + J(X*) u(t + dt)) / 2,
+// then the run's adapt stage (fluid/adaptation.hpp), the same for runs without capsules:
+// velocity wavelets, walls at their level, and the membrane bands at the max level that this
+// class provides as a fluid::BodyRefinement, so that the next step's stencils exist.
+//
 // Stages 2 and 4 work on the MAC faces (KernelChoice::staggered, the default): the projection
 // makes the face velocity uf divergence-free to its tolerance, the cell-centred u only
 // approximately, and nodes moved with the cell velocity let closed membranes gain volume
@@ -16,15 +22,13 @@
 // stages, face spreading is the adjoint of face interpolation. staggered = false is the
 // seed's scheme (cells, face force = mean of two cells, interpolation of the cell velocity),
 // kept for comparison.
-// then the run's adapt stage (fluid/adaptation.hpp), the same for runs without capsules:
-// velocity wavelets, walls at their level, and the membrane bands at the max level that this
-// class provides as a fluid::BodyRefinement, so that the next step's stencils exist.
-// V^n is interpolated from u(t + dt) at X(t). AB2 would make stage 5 second order if V^n
-// were the velocity of the configuration X(t); but the flow step itself is first order in
-// the force (f(X(t)) drives u from t to t + dt), and on the relaxing capsule at Re = 1
-// both schemes measured first order (ibm_long_tests TimeOrder: AB2 1.22, Euler 1.29, with
-// AB2's errors twice Euler's; docs/numerics.md). AB2's stability interval on the negative
-// real axis is half of Euler's, so Euler stays the default.
+//
+// V^n is interpolated from u(t + dt) at X(t). On the relaxing capsule at Re = 1 all three
+// node schemes measured first order in time (ibm_long_tests TimeOrder; docs/numerics.md):
+// the flow step's treatment of a changing force limits the order. The midpoint scheme was
+// 4-6 times more accurate than Euler, AB2 half as accurate (and AB2's stability interval
+// is half of Euler's); Euler stays the default until the midpoint's stability is measured.
+//
 // The coupling is explicit, so dt is bounded by the membrane's stiffness: a node's
 // relaxation time on the fluid grid is about mu dx / Gs = Ca dx (below), and steps much
 // longer than that make the membrane oscillate and blow up. Blow-up is detected (non-finite
@@ -66,6 +70,8 @@ struct Capsule {
   Eigen::Matrix3Xd forces;    // F(X(t)) of the last step
   Eigen::Matrix3Xd velocity;  // V of the last step (V^(n-1) of the next one's AB2)
   Eigen::Matrix3Xd previous_velocity;  // V of the step before (scratch of move_nodes)
+  Eigen::Matrix3Xd x_mid;              // midpoint scheme: X*, where forces and velocities are taken
+  Eigen::Matrix3Xd start_velocity;     // midpoint scheme: J(X*) u^n
   Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (may_wait)
   double energy = 0.0;        // E(X(t)) of the last step
   MembraneTags tags;
@@ -80,7 +86,10 @@ struct StageTimes {
 };
 
 // How stage 5 moves the nodes.
-enum class NodeScheme : unsigned char { euler, ab2 };
+// midpoint: forces at X* = X + (dt/2) V^(n-1), X += dt (J(X*) u^n + J(X*) u^(n+1)) / 2, one
+// flow solve per step (Peskin 2002 section 6, Griffith & Peskin 2005); second order with
+// Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2.
+enum class NodeScheme : unsigned char { euler, ab2, midpoint };
 
 struct [[nodiscard]] CouplingStep {
   fluid::StepStats fluid;
@@ -147,6 +156,12 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   void compute_forces(int step);
   void spread_forces(int step);
   void move_nodes(int step, double dt, double previous_dt);
+  // The midpoint scheme's X* and J(X*) u^n, before the flow step.
+  void predict_midpoint(int step);
+  // Where the stages take forces and velocities: X, or X* with the midpoint scheme.
+  [[nodiscard]] const Eigen::Matrix3Xd& stage_positions(const Capsule& c) const {
+    return scheme_ == NodeScheme::midpoint ? c.x_mid : c.x;
+  }
   // Throws std::runtime_error naming the step and time; `unstable` adds the likely cause
   // of a blow-up (stencil errors carry their own).
   [[noreturn]] void fail(int step, const std::string& what, bool unstable = true) const;
@@ -166,6 +181,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   double last_dt_ = 0.0;       // of the last fluid step (0 before the first)
   NodeScheme scheme_ = NodeScheme::euler;
   std::vector<Eigen::Matrix3Xd> motion_;  // per capsule: the node velocity of stage 5
+  fluid::FaceField<3> start_faces_;       // midpoint scheme: u^n on faces after an adaptation
   fluid::NavierStokes<3>::FaceForce background_;
 };
 
