@@ -67,6 +67,11 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
   // membrane_band counts the cells beyond the node's cell; the coupling's margin those beyond
   // the kernels' half support (2 cells for the widest kernels).
   coupling_ = std::make_unique<ibm::CapsuleCoupling>(ns, std::max(0, c.adapt.membrane_band - 2));
+  switch (c.time.node_scheme) {
+    case io::NodeScheme::euler: coupling_->set_node_scheme(ibm::NodeScheme::euler); break;
+    case io::NodeScheme::ab2: coupling_->set_node_scheme(ibm::NodeScheme::ab2); break;
+    case io::NodeScheme::midpoint: coupling_->set_node_scheme(ibm::NodeScheme::midpoint); break;
+  }
   for (std::size_t i = 0; i < c.capsules.size(); ++i) {
     const io::CapsuleConfig& k = c.capsules[i];
     const int index = static_cast<int>(i);

@@ -24,6 +24,7 @@ enum class InflowProfile : unsigned char { uniform, square_duct, parabolic };
 enum class MembraneLaw : unsigned char { skalak, neo_hookean };
 enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
 enum class KernelType : unsigned char { cosine, hat, peskin4 };
+enum class NodeScheme : unsigned char { euler, ab2, midpoint };
 
 // The spelling of each enum value in a case file.
 [[nodiscard]] std::string_view to_string(BoundaryType v);
@@ -31,6 +32,7 @@ enum class KernelType : unsigned char { cosine, hat, peskin4 };
 [[nodiscard]] std::string_view to_string(MembraneLaw v);
 [[nodiscard]] std::string_view to_string(InitialShape v);
 [[nodiscard]] std::string_view to_string(KernelType v);
+[[nodiscard]] std::string_view to_string(NodeScheme v);
 
 struct DomainConfig {
   std::array<int, 3> roots{1, 1, 1};     // root cubes per direction
@@ -106,6 +108,7 @@ struct TimeConfig {
   double t_end = 1.0;
   double cfl = 0.0;     // 0: fixed dt; > 0: dt = cfl h_min / |u|_max, capped by dt_max
   double dt_max = 0.0;  // cap of the adaptive dt (0: dt)
+  NodeScheme node_scheme = NodeScheme::euler;  // how membrane nodes move (ibm::NodeScheme)
   bool operator==(const TimeConfig&) const = default;
 };
 

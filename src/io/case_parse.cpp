@@ -126,6 +126,7 @@ void parse_time(TableReader r, TimeConfig& t) {
   r.read("t_end", t.t_end);
   r.read("cfl", t.cfl);
   r.read("dt_max", t.dt_max);
+  r.read("node_scheme", t.node_scheme, detail::kNodeSchemes);
   r.finish();
 }
 

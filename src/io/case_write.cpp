@@ -102,6 +102,7 @@ std::string to_toml(const CaseConfig& c) {
   line("t_end", toml_number(c.time.t_end));
   line("cfl", toml_number(c.time.cfl));
   line("dt_max", toml_number(c.time.dt_max));
+  line("node_scheme", toml_string(to_string(c.time.node_scheme)));
 
   out += "\n[output]\n";
   line("interval", fmt::format("{}", c.output.interval));

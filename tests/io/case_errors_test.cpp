@@ -55,6 +55,20 @@ TEST(io_case_errors, NegativeTimeStep) {
               HasSubstr("case.toml: time.dt = -0.001: must be > 0"));
 }
 
+// time.node_scheme and fluid.multigrid.fail_on_unconverged (issue 17): read, written back,
+// and a word outside the list refused naming the key.
+TEST(io_case_errors, NodeSchemeAndUnconvergedFailureKeys) {
+  const CaseConfig c = parse_case_text(
+      std::string(kBase) + "[fluid.multigrid]\nfail_on_unconverged = true\n[time]\nnode_scheme = \"midpoint\"\n", "c");
+  EXPECT_EQ(c.time.node_scheme, NodeScheme::midpoint);
+  EXPECT_TRUE(c.fluid.multigrid.fail_on_unconverged);
+  EXPECT_EQ(parse_case_text(to_toml(c), "c"), c);
+  EXPECT_EQ(parse_case_text(std::string(kBase), "c").time.node_scheme, NodeScheme::euler);
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\nnode_scheme = \"rk4\"\n"), HasSubstr("time.node_scheme"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid.multigrid]\nfail_on_unconverged = 1\n"),
+              HasSubstr("fluid.multigrid.fail_on_unconverged"));
+}
+
 TEST(io_case_errors, MaxLevelBelowMinLevel) {
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmin_level = 5\nmax_level = 3\n"),
               HasSubstr("adapt.max_level = 3: must be >= adapt.min_level (5)"));
