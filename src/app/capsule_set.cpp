@@ -67,6 +67,11 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
   // membrane_band counts the cells beyond the node's cell; the coupling's margin those beyond
   // the kernels' half support (2 cells for the widest kernels).
   coupling_ = std::make_unique<ibm::CapsuleCoupling>(ns, std::max(0, c.adapt.membrane_band - 2));
+  switch (c.time.node_scheme) {
+    case io::NodeScheme::euler: coupling_->set_node_scheme(ibm::NodeScheme::euler); break;
+    case io::NodeScheme::ab2: coupling_->set_node_scheme(ibm::NodeScheme::ab2); break;
+    case io::NodeScheme::midpoint: coupling_->set_node_scheme(ibm::NodeScheme::midpoint); break;
+  }
   for (std::size_t i = 0; i < c.capsules.size(); ++i) {
     const io::CapsuleConfig& k = c.capsules[i];
     const int index = static_cast<int>(i);
@@ -90,7 +95,7 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
     reference_area_.push_back(membrane::surface_area(mesh, mesh.nodes));
     reference_volume_.push_back(membrane::enclosed_volume(mesh, mesh.nodes));
     coupling_->add_capsule(membrane::MembraneModel(std::move(mesh), law), std::move(x),
-                           {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel)});
+                           {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel), .staggered = k.staggered});
   }
 }
 
@@ -141,8 +146,13 @@ std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
     const auto& xa = coupling_->capsule(i).x_at_adapt;
     extras.push_back({fmt::format("capsule_{}_positions_at_adapt", i), {std::size_t(xa.cols()), 3},
                       {xa.data(), xa.data() + xa.size()}});
+    // V of the last step: the next step's AB2 needs it (ibm/capsule_coupling.hpp).
+    const auto& v = coupling_->capsule(i).velocity;
+    if (v.cols() == x.cols())
+      extras.push_back({fmt::format("capsule_{}_velocity", i), {std::size_t(v.cols()), 3}, {v.data(), v.data() + v.size()}});
   }
   extras.push_back({"coupling_steps_since_adapt", {1}, {static_cast<double>(coupling_->steps_since_adapt())}});
+  extras.push_back({"coupling_last_dt", {1}, {coupling_->last_dt()}});
   return extras;
 }
 
@@ -165,11 +175,20 @@ void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras, std::int64_t
     for (const auto& e : extras)
       if (e.name == name + "_at_adapt" && e.values.size() == std::size_t(x.size()))
         std::copy(e.values.begin(), e.values.end(), xa.data());
+    // Without it (an older checkpoint) the first step after the restart is Euler.
+    Eigen::Matrix3Xd& v = coupling_->capsule(i).velocity;
+    for (const auto& e : extras)
+      if (e.name == fmt::format("capsule_{}_velocity", i) && e.values.size() == std::size_t(x.size())) {
+        v.resize(3, x.cols());
+        std::copy(e.values.begin(), e.values.end(), v.data());
+      }
   }
   coupling_->set_steps_since_adapt(0);
   for (const auto& e : extras)
     if (e.name == "coupling_steps_since_adapt" && e.values.size() == 1)
       coupling_->set_steps_since_adapt(static_cast<std::int64_t>(e.values[0]));
+    else if (e.name == "coupling_last_dt" && e.values.size() == 1)
+      coupling_->set_last_dt(e.values[0]);
 }
 
 }  // namespace capsflow::app

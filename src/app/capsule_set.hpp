@@ -29,7 +29,7 @@ class CapsuleSet {
   // membrane_NNNNNN.vtu (one per capsule: _<i> from the second on), parts 1.. of the series.
   void snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries& series) const;
   void write_final(const std::filesystem::path& dir) const;  // membrane_final.csv
-  std::vector<io::ExtraArray> checkpoint_extras() const;     // node positions
+  std::vector<io::ExtraArray> checkpoint_extras() const;     // node positions, velocities
   // From a checkpoint written after `step` steps: the positions and the adaptation state.
   void restore(const std::vector<io::ExtraArray>& extras, std::int64_t step);
 

@@ -103,7 +103,8 @@ class FlowRun {
     }
     fs::create_directories(out_);
     io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
-    const auto columns = io::standard_diagnostics_columns();
+    auto columns = io::standard_diagnostics_columns();
+    columns.emplace_back("mg_unconverged");  // solves that missed their tolerance since the last row
     // A restart into a new folder, or over another run (--force), starts its own diagnostics and series.
     const bool in_place = continues_in_place(out_, request_.restart);
     io::DiagnosticsCsv diagnostics = in_place && fs::exists(out_ / "diagnostics.csv")
@@ -130,6 +131,7 @@ class FlowRun {
         st = ns_.step();
       }
       ++step;
+      check_convergence(st, step);
       (void)adaptation_.after_step(step);  // the stage after the flow (and membrane) step
       const double vmax = max_speed();
       if (!std::isfinite(vmax))
@@ -143,7 +145,9 @@ class FlowRun {
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics() : CapsuleDiagnostics{nan, nan, nan, nan};
         diagnostics.row({double(step), ns_.time(), st.dt, double(tree_.num_leaves()), double(tree_.depth()), m.d12,
-                         m.d12_bbox, m.area_rel, m.volume_rel, vmax, double(st.cycles()), wall});
+                         m.d12_bbox, m.area_rel, m.volume_rel, vmax, double(st.cycles()), wall,
+                         double(unconverged_since_row_)});
+        unconverged_since_row_ = 0;
       }
       if (c.output.vtu && (step % c.output.interval == 0 || last)) snapshot(series, step);
       if (c.output.checkpoint &&
@@ -167,6 +171,27 @@ class FlowRun {
   }
 
  private:
+  // A multigrid solve that stopped at max_cycles above its tolerance: counted for the
+  // diagnostics, warned about once, and a run failure with fluid.multigrid.fail_on_unconverged.
+  void check_convergence(const fluid::StepStats& st, long step) {
+    if (st.unconverged == 0) return;
+    unconverged_since_row_ += st.unconverged;
+    const auto& mg = case_.fluid.multigrid;
+    const std::string what = fmt::format(
+        "step {}, t = {:.6g}: {} multigrid solve(s) stopped at max_cycles = {} above the tolerance {:.3g}", step,
+        ns_.time(), st.unconverged, mg.max_cycles, mg.tolerance);
+    if (mg.fail_on_unconverged)
+      throw RunFailure(fmt::format("{} (fluid.multigrid.fail_on_unconverged = true). Raise fluid.multigrid.max_cycles "
+                                   "or the tolerance, or reduce dt. Output up to the last snapshot is kept in {}",
+                                   what, out_.string()));
+    if (!warned_unconverged_) {
+      progress_.finish();
+      std::fprintf(stderr, "warning: %s; counted in the diagnostics column mg_unconverged (warned once)\n",
+                   what.c_str());
+      warned_unconverged_ = true;
+    }
+  }
+
   double max_speed() {
     double worst = 0.0;
     for (const auto c : tree_.leaves()) {
@@ -222,6 +247,8 @@ class FlowRun {
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
   ProgressLine progress_;
+  long unconverged_since_row_ = 0;  // the next diagnostics row's mg_unconverged
+  bool warned_unconverged_ = false;
 };
 
 }  // namespace

@@ -138,7 +138,7 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
     if (properties_) {
       const auto s = variable_viscous_solve(d, dt, theta);
       stats.viscous_cycles += s.cycles;
-      stats.converged = stats.converged && s.converged;
+      stats.count_solve(s.converged);
       continue;
     }
     std::span<double> u = tree_.values(u_[d]);
@@ -157,7 +157,7 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
     opt.tolerance *= options_.density / dt;  // residual of (rho/dt) u - div(mu grad u)
     const auto s = solve(op, u, rhs_, mg_, opt);
     stats.viscous_cycles += s.cycles;
-    stats.converged = stats.converged && s.converged;
+    stats.count_solve(s.converged);
   }
   correct(-1.0);
 }
@@ -200,7 +200,7 @@ void NavierStokes<D>::acceleration(double dt) {
 
 template <int D>
 int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt,
-                             bool& converged) {
+                             StepStats& stats) {
   divergence<D>(tree_, uf, div_);
   tree_.for_each_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
   std::span<double> pv = tree_.values(p);
@@ -214,15 +214,16 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
       uf[d][hi] -= dt * alpha(d, lo, hi, lv) * (pv[hi] - pv[lo]) / h;
     });
   });
-  converged = converged && s.converged;
+  stats.count_solve(s.converged);
   restrict_faces<D>(tree_, uf);
   return s.cycles;
 }
 
 template <int D>
 void NavierStokes<D>::projection(double dt, StepStats& stats) {
-  stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats.converged);
+  stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats);
   centred_gradient(dt);
+  faces_current_ = true;
 }
 
 template <int D>
@@ -285,6 +286,7 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
   for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
   const auto counts = tree_.adapt(opt);
   resize_scratch();
+  faces_current_ = false;
   return counts;
 }
 

@@ -66,7 +66,12 @@ struct [[nodiscard]] StepStats {
   int prediction_cycles = 0;
   int viscous_cycles = 0;
   bool converged = true;  // every solve reached its tolerance
+  int unconverged = 0;    // solves that stopped at max_cycles above their tolerance
   int cycles() const { return projection_cycles + prediction_cycles + viscous_cycles; }
+  void count_solve(bool solve_converged) {
+    converged = converged && solve_converged;
+    if (!solve_converged) ++unconverged;
+  }
 };
 
 template <int D>
@@ -87,6 +92,9 @@ class NavierStokes {
   std::span<double> u(int d) { return tree_.values(u_[d]); }
   std::span<double> p() { return tree_.values(p_); }
   const FaceField<D>& face_velocity() const { return uf_; }
+  // Whether face_velocity() is the projected face velocity of the current u: true after a
+  // step, false before the first one and after adapt() (which resets the faces).
+  bool face_velocity_current() const { return faces_current_; }
 
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.
@@ -136,7 +144,7 @@ class NavierStokes {
  private:
   void resize_scratch();
   void sync_velocity();
-  int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, bool& converged);
+  int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);
   void centred_gradient(double dt);
   MultigridStats variable_viscous_solve(int d, double dt, double theta);
@@ -166,6 +174,7 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   double rho_min_ = 1.0;                        // scales the viscous tolerance
+  bool faces_current_ = false;                  // face_velocity_current()
 };
 
 extern template class NavierStokes<2>;

@@ -104,7 +104,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
     });
   }
   restrict_faces<D>(tree_, uf_);
-  stats.prediction_cycles += project(uf_, pf_, 0.5 * dt, options_.projection, stats.converged);
+  stats.prediction_cycles += project(uf_, pf_, 0.5 * dt, options_.projection, stats);
 
   // 2. Conservative advection of each component by the projected face velocity.
   FaceField<D>& flux = scratch_faces_;

@@ -38,14 +38,16 @@ bool patch_exists(const tree::Tree<3>& t, int level, const std::array<std::int32
   return find_patch<W>(t, level, first, cells) < 0;
 }
 
-bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x) {
+// On cell centres, or (staggered) on the faces of each component.
+bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x, bool staggered) {
   return with_kernel(kind, [&]<Kernel K>(K) {
     const int level = t.max_level();
     const double h = t.cell_size(level);
-    for (Eigen::Index i = 0; i < x.cols(); ++i) {
-      const auto st = node_stencil<K>(t.options(), h, &x(0, i));
-      if (!patch_exists<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first})) return false;
-    }
+    for (Eigen::Index i = 0; i < x.cols(); ++i)
+      for (int axis = staggered ? 0 : -1; axis < (staggered ? 3 : 0); ++axis) {
+        const auto st = node_stencil<K>(t.options(), h, &x(0, i), axis);
+        if (!patch_exists<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first})) return false;
+      }
     return true;
   });
 }
@@ -60,7 +62,12 @@ CapsuleCoupling::CapsuleCoupling(fluid::NavierStokes<3>& ns, int margin) : ns_(n
     if (background_) background_(t, faces);
     if (!force_ready_) return;
     const auto t0 = Clock::now();
-    cell_to_face_force<3>(t, force_, faces, background_ ? SpreadMode::add : SpreadMode::assign);
+    bool add = static_cast<bool>(background_);
+    if (any_cells_ || !any_faces_) {
+      cell_to_face_force<3>(t, force_, faces, add ? SpreadMode::add : SpreadMode::assign);
+      add = true;
+    }
+    if (any_faces_) add_face_force<3>(t, face_force_, faces, add ? SpreadMode::add : SpreadMode::assign);
     face_seconds_ += seconds_since(t0);
   });
 }
@@ -109,7 +116,8 @@ void CapsuleCoupling::update_region() {
 bool CapsuleCoupling::stencils_ready() const {
   const tree::Tree<3>& t = ns_.tree();
   return std::all_of(capsules_.begin(), capsules_.end(), [&](const Capsule& c) {
-    return node_stencils_exist(t, c.kernels.spread, c.x) && node_stencils_exist(t, c.kernels.interpolate, c.x);
+    return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered) &&
+           node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered);
   });
 }
 
@@ -134,7 +142,7 @@ void CapsuleCoupling::compute_forces(int step) {
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
     try {
-      c.energy = c.model.compute_forces(c.x, c.forces);
+      c.energy = c.model.compute_forces(stage_positions(c), c.forces);
     } catch (const membrane::ElementError& e) {
       fail(step, fmt::format("capsule {}: element {} is inverted or collapsed ({})", k, e.element(), e.what()));
     }
@@ -148,52 +156,106 @@ void CapsuleCoupling::compute_forces(int step) {
 void CapsuleCoupling::spread_forces(int step) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
+  any_cells_ = any_faces_ = false;
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
+    bool& started = c.kernels.staggered ? any_faces_ : any_cells_;
+    const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
-      spread(c.kernels.spread, t, c.x, c.forces, force_, workspace_, k == 0 ? SpreadMode::assign : SpreadMode::add);
+      const Eigen::Matrix3Xd& at = stage_positions(c);
+      if (c.kernels.staggered) spread_faces(c.kernels.spread, t, at, c.forces, face_force_, workspace_, mode);
+      else spread(c.kernels.spread, t, at, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
     }
+    started = true;
   }
-  if (capsules_.empty())
-    for (auto& f : force_) f.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
+  const auto cells = static_cast<std::size_t>(t.num_cells());
+  if (!any_cells_)
+    for (auto& f : force_) f.assign(cells, 0.0);
+  if (!any_faces_)
+    for (auto& f : face_force_) f.assign(cells, 0.0);
   force_ready_ = true;
   times_.spreading += seconds_since(t0);
 }
 
-void CapsuleCoupling::move_nodes(int step, double dt) {
+void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
   const auto& o = t.options();
+  motion_.resize(capsules_.size());
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsules_[k];
+    std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
-      interpolate(c.kernels.interpolate, t, u, c.x, c.velocity);
+      const Eigen::Matrix3Xd& at = stage_positions(c);
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, ns_.face_velocity(), at, c.velocity);
+      else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
     }
     Eigen::Index bad = 0;
     if (!all_finite(c.velocity, bad))
       fail(step, fmt::format("capsule {}: the velocity of node {} is not finite", k, bad));
+    // AB2 with a variable step (Euler on the first step, or without V^(n-1)).
+    Eigen::Matrix3Xd& m = motion_[k];
+    if (scheme_ == NodeScheme::midpoint) {
+      m = 0.5 * (c.start_velocity + c.velocity);
+    } else if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
+      const double r = dt / previous_dt;
+      m = (1.0 + 0.5 * r) * c.velocity - (0.5 * r) * c.previous_velocity;
+    } else {
+      m = c.velocity;
+    }
     // Check every new position before committing any: a failure keeps the last good X.
     for (Eigen::Index i = 0; i < c.x.cols(); ++i)
       for (int d = 0; d < 3; ++d) {
-        const double xn = c.x(d, i) + dt * c.velocity(d, i);
+        const double xn = c.x(d, i) + dt * m(d, i);
         const double lo = o.origin[d], hi = lo + o.roots[d] * o.root_size;
         if (!o.periodic[d] && !(xn > lo && xn < hi))
           fail(step, fmt::format("capsule {}: node {} would leave the domain: {} = {:.6g} outside [{}, {}]", k, i,
                                  "xyz"[d], xn, lo, hi));
       }
   }
-  for (Capsule& c : capsules_) c.x += dt * c.velocity;
+  for (int k = 0; k < num_capsules(); ++k) capsules_[k].x += dt * motion_[k];
+  times_.interpolation += seconds_since(t0);
+}
+
+void CapsuleCoupling::predict_midpoint(int step) {
+  const auto t0 = Clock::now();
+  const tree::Tree<3>& t = ns_.tree();
+  const double dt = ns_.stable_dt();
+  // u^n on faces: the last projection's, or after an adaptation (which resets them) the face
+  // mean of the cell velocity.
+  const fluid::FaceField<3>* faces = &ns_.face_velocity();
+  if (!ns_.face_velocity_current()) {
+    fluid::resize<3>(start_faces_, t);
+    const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+    fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
+      start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
+    });
+    faces = &start_faces_;
+  }
+  const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+  for (int k = 0; k < num_capsules(); ++k) {
+    Capsule& c = capsules_[k];
+    c.x_mid = c.x;
+    if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
+    try {
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, *faces, c.x_mid, c.start_velocity);
+      else interpolate(c.kernels.interpolate, t, u, c.x_mid, c.start_velocity);
+    } catch (const StencilError& e) {
+      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+    }
+  }
   times_.interpolation += seconds_since(t0);
 }
 
 CouplingStep CapsuleCoupling::step() {
   const int step = static_cast<int>(steps_ + 1);
   CouplingStep out;
+  if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);
   compute_forces(step);
   spread_forces(step);
   face_seconds_ = 0.0;
@@ -205,10 +267,11 @@ CouplingStep CapsuleCoupling::step() {
     throw;
   }
   force_ready_ = false;
+  const double previous_dt = last_dt_;
   last_dt_ = out.fluid.dt;
   times_.fluid += seconds_since(t0) - face_seconds_;
   times_.spreading += face_seconds_;
-  move_nodes(step, out.fluid.dt);
+  move_nodes(step, out.fluid.dt, previous_dt);
   ++steps_;
   ++since_adapt_;
   return out;

@@ -6,6 +6,15 @@
 // stencil cell must be an active leaf of the tree's max level, else StencilError: a
 // coarser leaf's value would be a silently wrong weight.
 //
+// On faces (the default of the coupling, capsule_coupling.hpp): component d of v is the
+// kernel-weighted sum of the MAC velocities uf_d on the max-level faces normal to d around
+// the node (the staggered stencils of stencil.hpp),
+//   v_d(X) = sum_f uf_d(f) w(X, f),   s = (x_f - X)/dx with x_f the face centre,
+// as IBAMR and Bao et al. (2017) interpolate on a staggered grid. The projection makes uf,
+// not the cell-centred u, discretely divergence-free (to its tolerance), and the cell
+// velocity's non-solenoidal part made closed membranes gain volume steadily in shear.
+// This is the adjoint of spread_faces with the same kernel: sum_X V.F = sum_f uf f dx^3.
+//
 // Parallel over nodes: each node gathers its own sum, so there is nothing to race on and
 // the result does not depend on the number of threads.
 #include <array>
@@ -13,6 +22,7 @@
 
 #include <Eigen/Core>
 
+#include "fluid/faces.hpp"
 #include "ibm/kernels.hpp"
 #include "tree/tree.hpp"
 
@@ -27,6 +37,16 @@ void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double
 inline void interpolate(KernelKind kind, const tree::Tree<3>& t, const std::array<std::span<const double>, 3>& u,
                         const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
   with_kernel(kind, [&]<Kernel K>(K) { interpolate<K>(t, u, x, v); });
+}
+
+// uf: the face velocities (fluid/faces.hpp; valid on the max-level faces of the stencils).
+template <Kernel K>
+void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
+                       Eigen::Matrix3Xd& v);
+
+inline void interpolate_faces(KernelKind kind, const tree::Tree<3>& t, const fluid::FaceField<3>& uf,
+                              const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
+  with_kernel(kind, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v); });
 }
 
 }  // namespace capsflow::ibm

@@ -1,4 +1,5 @@
-// Spreading point forces onto the max-level cells (operator and parallel scheme: spread.hpp).
+// Spreading point forces onto the max-level cells or faces (operators and parallel scheme:
+// spread.hpp).
 #include "ibm/spread.hpp"
 
 #include <omp.h>
@@ -16,22 +17,27 @@ namespace capsflow::ibm {
 namespace {
 // Below this many nodes a parallel region costs more than the work.
 constexpr Eigen::Index kParallelNodes = 256;
-}  // namespace
 
-template <Kernel K>
-void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
-            SpreadWorkspace& ws, SpreadMode mode) {
-  constexpr int W = K::kSupport, W3 = W * W * W;
-  const Eigen::Index n = x.cols();
-  if (forces.cols() != n)
-    throw std::invalid_argument(fmt::format("ibm: spread got {} forces for {} nodes", forces.cols(), n));
+void prepare(const tree::Tree<3>& t, Eigen::Index nodes, const Eigen::Matrix3Xd& forces, CellVector& f,
+             SpreadMode mode) {
+  if (forces.cols() != nodes)
+    throw std::invalid_argument(fmt::format("ibm: spread got {} forces for {} nodes", forces.cols(), nodes));
   const auto cells = static_cast<std::size_t>(t.num_cells());
   for (auto& fd : f) {
-    if (mode == SpreadMode::assign) fd.resize(cells);
+    if (mode == SpreadMode::assign) fd.assign(cells, 0.0);
     else if (fd.size() != cells)
       throw std::invalid_argument(fmt::format("ibm: spread (add) into a field of {} cells, the tree has {}",
                                               fd.size(), cells));
   }
+}
+
+// Adds the force components [c0, c1) of every node, through the stencils on cell centres
+// (face_axis = -1) or on the faces normal to face_axis, to f[c0..c1).
+template <Kernel K>
+void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
+                 SpreadWorkspace& ws, int face_axis, int c0, int c1) {
+  constexpr int W = K::kSupport, W3 = W * W * W;
+  const Eigen::Index n = x.cols();
   const int level = t.max_level();
   const double h = t.cell_size(level), inv_volume = 1.0 / (h * h * h);
   const auto& options = t.options();
@@ -40,20 +46,14 @@ void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matr
   ws.lowest.resize(static_cast<std::size_t>(n));
   ws.highest.resize(static_cast<std::size_t>(n));
   const Index level_begin = t.level(level).active_begin(), level_end = t.level(level).active_end();
-  double* f0 = f[0].data();
-  double* f1 = f[1].data();
-  double* f2 = f[2].data();
+  std::array<double*, 3> out{f[0].data(), f[1].data(), f[2].data()};
   Eigen::Index bad = n;  // the lowest node with a missing stencil cell
 
 #pragma omp parallel if (n >= kParallelNodes)
   {
-    if (mode == SpreadMode::assign) {
-#pragma omp for schedule(static) nowait
-      for (std::size_t c = 0; c < cells; ++c) f0[c] = f1[c] = f2[c] = 0.0;
-    }
 #pragma omp for schedule(static) reduction(min : bad)
     for (Eigen::Index i = 0; i < n; ++i) {
-      const auto st = node_stencil<K>(options, h, &x(0, i));
+      const auto st = node_stencil<K>(options, h, &x(0, i), face_axis);
       double* w = ws.weights.data() + i * 3 * W;
       for (int d = 0; d < 3; ++d) std::copy(st[d].w.begin(), st[d].w.end(), w + d * W);
       Index* c = ws.cells.data() + i * W3;
@@ -67,7 +67,7 @@ void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matr
       ws.lowest[i] = *lo;
       ws.highest[i] = *hi;
     }
-    // (implicit barrier: the stencils are complete, f is zero, bad is reduced)
+    // (implicit barrier: the stencils are complete, bad is reduced)
     if (bad == n) {
       const std::int64_t span = level_end - level_begin;
       const int threads = omp_get_num_threads(), me = omp_get_thread_num();
@@ -75,8 +75,8 @@ void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matr
       const auto own_hi = static_cast<Index>(level_begin + span * (me + 1) / threads);
       for (Eigen::Index i = 0; i < n; ++i) {
         if (ws.highest[i] < own_lo || ws.lowest[i] >= own_hi) continue;
-        const double g0 = forces(0, i) * inv_volume, g1 = forces(1, i) * inv_volume,
-                     g2 = forces(2, i) * inv_volume;
+        double g[3];
+        for (int k = c0; k < c1; ++k) g[k] = forces(k, i) * inv_volume;
         const double* w = ws.weights.data() + i * 3 * W;
         const Index* c = ws.cells.data() + i * W3;
         for (int kz = 0, s = 0; kz < W; ++kz)
@@ -86,20 +86,34 @@ void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matr
               const Index cell = c[s];
               if (cell < own_lo || cell >= own_hi) continue;
               const double wc = wyz * w[ix];
-              f0[cell] += g0 * wc;
-              f1[cell] += g1 * wc;
-              f2[cell] += g2 * wc;
+              for (int k = c0; k < c1; ++k) out[k][cell] += g[k] * wc;
             }
           }
       }
     }
   }
   if (bad < n) {  // rebuild the failing node's stencil serially for the message
-    const auto st = node_stencil<K>(options, h, &x(0, bad));
+    const auto st = node_stencil<K>(options, h, &x(0, bad), face_axis);
     Index c[W3];
-    require_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c, bad, &x(0, bad), "spreading",
-                     K::kName);
+    require_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c, bad, &x(0, bad),
+                     face_axis < 0 ? "spreading" : "face spreading", K::kName);
   }
+}
+
+}  // namespace
+
+template <Kernel K>
+void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
+            SpreadWorkspace& ws, SpreadMode mode) {
+  prepare(t, x.cols(), forces, f, mode);
+  spread_pass<K>(t, x, forces, f, ws, -1, 0, 3);
+}
+
+template <Kernel K>
+void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
+                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode) {
+  prepare(t, x.cols(), forces, f, mode);
+  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1);
 }
 
 template void spread<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
@@ -108,5 +122,11 @@ template void spread<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, c
                                 CellVector&, SpreadWorkspace&, SpreadMode);
 template void spread<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
                                     CellVector&, SpreadWorkspace&, SpreadMode);
+template void spread_faces<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
+                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+template void spread_faces<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
+                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+template void spread_faces<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
+                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
 
 }  // namespace capsflow::ibm

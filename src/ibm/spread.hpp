@@ -13,10 +13,18 @@
 // node order whatever the number of threads: the result is bitwise independent of it. A
 // node whose stencil misses a thread's range costs that thread two comparisons.
 //
-// The solver takes forces on faces (fluid/faces.hpp): cell_to_face_force puts on each fine
-// face the mean of the two cells' values and restricts to coarse faces, which keeps
-// sum_faces f dx^3 = sum_cells f dx^3 away from walls (a wall carries the normal force
-// itself; the solver drops it there).
+// The solver takes forces on faces (fluid/faces.hpp). Two ways there:
+//  - spread_faces (the coupling's default): component d straight onto the max-level faces
+//    normal to d, f_d(face) = sum_X F_d(X) w(X, face) / dx^3 with the staggered stencils of
+//    stencil.hpp; then sum_faces f_d dx^3 = sum_X F_d, and it is the adjoint of
+//    interpolate_faces with the same kernel (sum_X V.F = sum_faces uf f dx^3), so the
+//    coupling neither creates nor destroys energy. add_face_force copies it into the
+//    solver's field and restricts to coarse faces.
+//  - spread to cells, then cell_to_face_force puts on each fine face the mean of the two
+//    cells' values and restricts to coarse faces, which keeps sum_faces f dx^3 =
+//    sum_cells f dx^3 away from walls (a wall carries the normal force itself; the solver
+//    drops it there). Its adjoint reads the face average of a cell field, not the cell
+//    velocity that interpolate() reads: the cell pair is adjoint only up to that average.
 #include <array>
 #include <vector>
 
@@ -53,6 +61,30 @@ inline void spread(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3
                    const Eigen::Matrix3Xd& forces, CellVector& f, SpreadWorkspace& ws,
                    SpreadMode mode = SpreadMode::assign) {
   with_kernel(kind, [&]<Kernel K>(K) { spread<K>(t, x, forces, f, ws, mode); });
+}
+
+// f: one array per component over the tree's cell slots, slot c the lower face of cell c
+// normal to d (a fluid::FaceField).
+template <Kernel K>
+void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
+                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign);
+
+inline void spread_faces(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
+                         const Eigen::Matrix3Xd& forces, fluid::FaceField<3>& f, SpreadWorkspace& ws,
+                         SpreadMode mode = SpreadMode::assign) {
+  with_kernel(kind, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode); });
+}
+
+// faces = f (or faces + f with SpreadMode::add) on every fine face; coarse faces: the mean of
+// their fine faces. f: a face force from spread_faces (zero away from its stencils).
+template <int D>
+void add_face_force(const tree::Tree<D>& t, const fluid::FaceField<D>& f, fluid::FaceField<D>& faces,
+                    SpreadMode mode = SpreadMode::assign) {
+  const double keep = mode == SpreadMode::add ? 1.0 : 0.0;
+  fluid::for_each_face<D>(t, [&](int d, Index, Index hi, double, const tree::Level<D>&) {
+    faces[d][hi] = keep * faces[d][hi] + f[d][hi];
+  });
+  fluid::restrict_faces<D>(t, faces);
 }
 
 // faces[d] on every fine face: (f_d(lower cell) + f_d(upper cell)) / 2 (added to the face's

@@ -10,6 +10,13 @@
 // divided by their sum, so that sum_k w_k = 1 to the last bit the division allows whatever
 // the kernel's analytic normalisation: spreading then conserves the total force exactly.
 //
+// Face (staggered) stencils: the MAC velocity and face force of component d live on the
+// lower faces of the cells along d (fluid/faces.hpp: slot c is the lower face of cell c), at
+// o + i h along d and at cell centres along the other axes. The stencil of component d is
+// then the same construction with u = (X - o)/h along axis d (the faces at integer i), so
+// that its slots are again cell indices: at most one cell beyond the centred stencil on the
+// upper side, within the band's margin.
+//
 // Locating the cells: find_patch does one tree search per anchor cell of level L - k
 // (k >= 2 and 2^k >= W - 1, so a stencil spans at most 2 anchors per axis: at most 8
 // searches), descends from the anchors to the stencil's parents on level L - 1 (at most
@@ -38,10 +45,11 @@ struct AxisStencil {
   std::array<double, W> w{};  // normalised weights
 };
 
+// offset: where sample 0 lies in cell 0, in cells (1/2: cell centres, 0: lower faces).
 template <Kernel K>
-[[nodiscard]] inline AxisStencil<K::kSupport> axis_stencil(double x, double origin, double h) {
+[[nodiscard]] inline AxisStencil<K::kSupport> axis_stencil(double x, double origin, double h, double offset = 0.5) {
   constexpr int W = K::kSupport;
-  const double u = (x - origin) / h - 0.5;
+  const double u = (x - origin) / h - offset;
   // A NaN or huge coordinate would make the cast below undefined (UBSan does not check
   // float casts): the coupling stops a run before a node moves to such a place.
   CAPSFLOW_ASSERT(std::abs(u) < 1e9, "ibm: a membrane node's coordinate is not finite or far outside the tree");
@@ -62,12 +70,14 @@ template <Kernel K>
   return a;
 }
 
-// The three axis stencils of point x on level `level` of the tree.
+// The three axis stencils of point x on level `level` of the tree: on cell centres, or, for
+// face_axis = d in {0, 1, 2}, on the lower faces along d (the stencil of component d).
 template <Kernel K>
 [[nodiscard]] inline std::array<AxisStencil<K::kSupport>, 3> node_stencil(const tree::TreeOptions<3>& o, double h,
-                                                                         const double* x) {
-  return {axis_stencil<K>(x[0], o.origin[0], h), axis_stencil<K>(x[1], o.origin[1], h),
-          axis_stencil<K>(x[2], o.origin[2], h)};
+                                                                         const double* x, int face_axis = -1) {
+  auto offset = [face_axis](int d) { return d == face_axis ? 0.0 : 0.5; };
+  return {axis_stencil<K>(x[0], o.origin[0], h, offset(0)), axis_stencil<K>(x[1], o.origin[1], h, offset(1)),
+          axis_stencil<K>(x[2], o.origin[2], h, offset(2))};
 }
 
 // Fills cells[i + W j + W^2 k] with the active leaf of `level` at first + (i, j, k)

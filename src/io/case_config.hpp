@@ -24,6 +24,7 @@ enum class InflowProfile : unsigned char { uniform, square_duct, parabolic };
 enum class MembraneLaw : unsigned char { skalak, neo_hookean };
 enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
 enum class KernelType : unsigned char { cosine, hat, peskin4 };
+enum class NodeScheme : unsigned char { euler, ab2, midpoint };
 
 // The spelling of each enum value in a case file.
 [[nodiscard]] std::string_view to_string(BoundaryType v);
@@ -31,6 +32,7 @@ enum class KernelType : unsigned char { cosine, hat, peskin4 };
 [[nodiscard]] std::string_view to_string(MembraneLaw v);
 [[nodiscard]] std::string_view to_string(InitialShape v);
 [[nodiscard]] std::string_view to_string(KernelType v);
+[[nodiscard]] std::string_view to_string(NodeScheme v);
 
 struct DomainConfig {
   std::array<int, 3> roots{1, 1, 1};     // root cubes per direction
@@ -51,6 +53,9 @@ struct BoundaryConfig {
 struct MultigridConfig {
   double tolerance = 1e-3;  // residual (max norm) that ends the cycles
   int max_cycles = 50;
+  // A solve that stops at max_cycles above its tolerance: false counts it (the diagnostics'
+  // mg_unconverged, a warning on stderr the first time), true also stops the run (exit 3).
+  bool fail_on_unconverged = false;
   bool operator==(const MultigridConfig&) const = default;
 };
 
@@ -94,6 +99,7 @@ struct CapsuleConfig {
   double inflation = 1.0;                   // inflated: initial radius / radius
   KernelType spread_kernel = KernelType::cosine;
   KernelType interp_kernel = KernelType::hat;
+  bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
   bool operator==(const CapsuleConfig&) const = default;
 };
 
@@ -102,6 +108,7 @@ struct TimeConfig {
   double t_end = 1.0;
   double cfl = 0.0;     // 0: fixed dt; > 0: dt = cfl h_min / |u|_max, capped by dt_max
   double dt_max = 0.0;  // cap of the adaptive dt (0: dt)
+  NodeScheme node_scheme = NodeScheme::euler;  // how membrane nodes move (ibm::NodeScheme)
   bool operator==(const TimeConfig&) const = default;
 };
 

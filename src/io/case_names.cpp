@@ -7,5 +7,6 @@ std::string_view to_string(InflowProfile v) { return detail::name_of(detail::kIn
 std::string_view to_string(MembraneLaw v) { return detail::name_of(detail::kMembraneLaws, v); }
 std::string_view to_string(InitialShape v) { return detail::name_of(detail::kInitialShapes, v); }
 std::string_view to_string(KernelType v) { return detail::name_of(detail::kKernelTypes, v); }
+std::string_view to_string(NodeScheme v) { return detail::name_of(detail::kNodeSchemes, v); }
 
 }  // namespace capsflow::io

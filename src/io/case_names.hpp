@@ -27,6 +27,9 @@ inline constexpr NameTable<InitialShape, 3> kInitialShapes{{{InitialShape::spher
 inline constexpr NameTable<KernelType, 3> kKernelTypes{{{KernelType::cosine, "cosine"},
                                                         {KernelType::hat, "hat"},
                                                         {KernelType::peskin4, "peskin4"}}};
+inline constexpr NameTable<NodeScheme, 3> kNodeSchemes{{{NodeScheme::euler, "euler"},
+                                                        {NodeScheme::ab2, "ab2"},
+                                                        {NodeScheme::midpoint, "midpoint"}}};
 
 inline constexpr std::array<std::string_view, 6> kSideNames{"x_lo", "x_hi", "y_lo",
                                                             "y_hi", "z_lo", "z_hi"};

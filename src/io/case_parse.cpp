@@ -82,6 +82,7 @@ void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig
     TableReader m(*mg, r.key_path("multigrid"), r.source());
     m.read("tolerance", f.multigrid.tolerance);
     m.read("max_cycles", f.multigrid.max_cycles);
+    m.read("fail_on_unconverged", f.multigrid.fail_on_unconverged);
     m.finish();
   }
   const toml::table empty;
@@ -115,6 +116,7 @@ CapsuleConfig parse_capsule(TableReader r) {
   r.read("inflation", c.inflation);
   r.read("spread_kernel", c.spread_kernel, detail::kKernelTypes);
   r.read("interp_kernel", c.interp_kernel, detail::kKernelTypes);
+  r.read("staggered", c.staggered);
   r.finish();
   return c;
 }
@@ -124,6 +126,7 @@ void parse_time(TableReader r, TimeConfig& t) {
   r.read("t_end", t.t_end);
   r.read("cfl", t.cfl);
   r.read("dt_max", t.dt_max);
+  r.read("node_scheme", t.node_scheme, detail::kNodeSchemes);
   r.finish();
 }
 

@@ -65,6 +65,7 @@ std::string to_toml(const CaseConfig& c) {
   out += "\n[fluid.multigrid]\n";
   line("tolerance", toml_number(c.fluid.multigrid.tolerance));
   line("max_cycles", fmt::format("{}", c.fluid.multigrid.max_cycles));
+  line("fail_on_unconverged", b(c.fluid.multigrid.fail_on_unconverged));
   out += "\n[fluid.boundary]\n";
   for (int s = 0; s < 2 * n; ++s) line(detail::kSideNames[s], side_repr(c.fluid.boundary[s], n));
 
@@ -93,6 +94,7 @@ std::string to_toml(const CaseConfig& c) {
     line("inflation", toml_number(cap.inflation));
     line("spread_kernel", toml_string(to_string(cap.spread_kernel)));
     line("interp_kernel", toml_string(to_string(cap.interp_kernel)));
+    line("staggered", b(cap.staggered));
   }
 
   out += "\n[time]\n";
@@ -100,6 +102,7 @@ std::string to_toml(const CaseConfig& c) {
   line("t_end", toml_number(c.time.t_end));
   line("cfl", toml_number(c.time.cfl));
   line("dt_max", toml_number(c.time.dt_max));
+  line("node_scheme", toml_string(to_string(c.time.node_scheme)));
 
   out += "\n[output]\n";
   line("interval", fmt::format("{}", c.output.interval));

@@ -147,7 +147,9 @@ TEST(AppLimits, FailureMessagesSayWhatHappened) {
   const fs::path dir = scratch("messages");
   auto r = capsflow(cavity("--set time.dt=0.5 --set time.t_end=100 --out " + (dir / "blow").string()), dir);
   EXPECT_EQ(r.status, 3);
-  EXPECT_THAT(r.err, StartsWith("capsflow: "));
+  // (the solves of a blowing-up run miss their tolerance first: one warning line)
+  EXPECT_THAT(r.err, AnyOf(StartsWith("capsflow: "), HasSubstr("(warned once)\ncapsflow: ")));
+  EXPECT_THAT(r.err, Not(HasSubstr("\n\n")));
   r = capsflow("run /proc/self/mem --quiet --out " + (dir / "mem").string(), dir);
   EXPECT_EQ(r.status, 2);
   EXPECT_THAT(r.err, HasSubstr("cannot read"));

@@ -37,6 +37,30 @@ std::string fmt_args(const std::string& name, const fs::path& dir) {
          "--set time.t_end=0.02 --set output.interval=4 --out " + (dir / "out").string();
 }
 
+// A solve forced to fail (one cycle, a tolerance no cycle reaches) is counted in
+// mg_unconverged and warned about once; with fail_on_unconverged it stops the run (exit 3).
+TEST(AppCases, UnconvergedSolvesAreCountedOrFail) {
+  const std::string forced = " --set fluid.multigrid.max_cycles=1 --set fluid.multigrid.tolerance=1e-12";
+  const fs::path dir = scratch("unconverged");
+  const auto r = capsflow(fmt_args("cavity_2d", dir) + forced, dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("warning: step 1, t = 0.005: "));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("multigrid solve(s) stopped at max_cycles = 1"));
+  EXPECT_EQ(r.err.find("warning:"), r.err.rfind("warning:")) << "warned more than once: " << r.err;
+  const auto table = rows_of(dir / "out" / "diagnostics.csv");
+  ASSERT_EQ(table.size(), 5u);
+  ASSERT_EQ(table[0].back(), "mg_unconverged");
+  for (std::size_t i = 1; i < table.size(); ++i) EXPECT_GE(std::stoi(table[i].back()), 1) << "row " << i;
+
+  const fs::path dir2 = scratch("unconverged_fails");
+  const auto f = capsflow(fmt_args("cavity_2d", dir2) + forced + " --set fluid.multigrid.fail_on_unconverged=true", dir2);
+  EXPECT_EQ(f.status, 3) << f.err;
+  EXPECT_THAT(f.err, ::testing::HasSubstr("step 1, t = 0.005:"));
+  EXPECT_THAT(f.err, ::testing::HasSubstr("fluid.multigrid.fail_on_unconverged = true"));
+  // The written case keeps the key.
+  EXPECT_TRUE(io::parse_case(dir2 / "out" / "case.toml").fluid.multigrid.fail_on_unconverged);
+}
+
 TEST(AppCases, EveryCaseParses) {
   int count = 0;
   for (const auto& entry : fs::directory_iterator(CAPSFLOW_CASES_DIR)) {
@@ -60,7 +84,8 @@ TEST(AppCases, ShortRunsWriteEveryOutput) {
     const auto table = rows_of(dir / "out" / "diagnostics.csv");
     ASSERT_EQ(table.size(), 5u);
     EXPECT_THAT(table[0], ::testing::ElementsAre("step", "t", "dt", "cells", "max_level", "D12", "D12_bbox", "area_rel",
-                                                 "volume_rel", "vmax", "mg_cycles", "wall_s"));
+                                                 "volume_rel", "vmax", "mg_cycles", "wall_s", "mg_unconverged"));
+    for (std::size_t i = 1; i < table.size(); ++i) EXPECT_EQ(table[i][12], "0") << name << " row " << i;
     // The series lists both snapshots; the last .vtu has one cell per leaf.
     const auto series = io::PvdSeries::load(dir / "out" / "series.pvd");
     ASSERT_EQ(series.entries().size(), 2u);
@@ -92,7 +117,8 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
   const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
   ASSERT_EQ(resumed.size(), full.size());
   for (std::size_t i = 1; i < full.size(); ++i)
-    for (std::size_t c = 0; c + 1 < full[i].size(); ++c) ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+    for (std::size_t c = 0; c < full[i].size(); ++c)
+      if (full[0][c] != "wall_s") ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
 }
 
 }  // namespace
@@ -108,6 +134,26 @@ using namespace testing;
 // adaptation may wait (max_interval 4, a 6-cell margin): it adapts after steps 4 and 8, so
 // the restart from step 5 must carry the steps since the last adaptation and the positions
 // then to adapt after step 8 again.
+// Issue 17: in simple shear (cases/shear_quick.toml, dx = a/8, 642 nodes) the cell-centred
+// coupling gains volume steadily (+0.093% at strain 0.5, +0.77% at 2); the staggered one
+// (the default) moves the nodes with the projected face velocity (-0.022% at 0.5).
+TEST(AppCapsule, StaggeredCouplingKeepsTheVolumeInShear) {
+  const fs::path dir = scratch("shear_volume");
+  auto volume = [&](const std::string& name, const std::string& extra) {
+    const auto r = capsflow("run " + std::string(CAPSFLOW_CASES_DIR) + "/shear_quick.toml --quiet --set time.t_end=0.5" +
+                                extra + " --out " + (dir / name).string(),
+                            dir);
+    EXPECT_EQ(r.status, 0) << r.err;
+    const auto table = rows_of(dir / name / "diagnostics.csv");
+    EXPECT_EQ(table[0][8], "volume_rel");
+    return std::stod(table.back()[8]);
+  };
+  const double faces = volume("faces", ""), cells = volume("cells", " --set capsule[0].staggered=false");
+  std::printf("volume_rel at strain 0.5: faces %.3e, cells %.3e\n", faces, cells);
+  EXPECT_GT(cells, 5e-4);
+  EXPECT_LT(std::abs(faces), cells / 3);
+}
+
 TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   const fs::path dir = scratch("capsule");
   const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
@@ -135,7 +181,8 @@ TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
   ASSERT_EQ(resumed.size(), full.size());
   for (std::size_t i = 1; i < full.size(); ++i)
-    for (std::size_t c = 0; c + 1 < full[i].size(); ++c) ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+    for (std::size_t c = 0; c < full[i].size(); ++c)
+      if (full[0][c] != "wall_s") ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
   EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
 }
 
@@ -160,7 +207,8 @@ TEST(AppCapsule, RestartBetweenAdaptationsRepeatsTheRunExactly) {
   const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
   ASSERT_EQ(resumed.size(), full.size());
   for (std::size_t i = 1; i < full.size(); ++i)
-    for (std::size_t c = 0; c + 1 < full[i].size(); ++c) ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+    for (std::size_t c = 0; c < full[i].size(); ++c)
+      if (full[0][c] != "wall_s") ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
   EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
 }
 

@@ -26,6 +26,7 @@ struct SeedRun {
   fluid::AdaptationOptions adapt{.enabled = true, .velocity_tolerance = 1e-2, .min_level = 2};
   int margin = 2;  // the band's cells beyond the kernels
   KernelChoice kernels{};
+  bool crank_nicolson = false;  // viscous scheme (FlowOptions)
 };
 
 struct SeedSetup {
@@ -47,6 +48,7 @@ inline fluid::FlowOptions<3> seed_flow(const SeedRun& r) {
   o.boundaries[1].kind = fluid::SideKind::outflow;  // x_hi
   o.projection.tolerance = r.tolerance;
   o.viscous.tolerance = r.tolerance;
+  o.crank_nicolson = r.crank_nicolson;
   return o;
 }
 

@@ -330,7 +330,7 @@ TEST(Coupling, MissingRefinementIsReported) {
     (void)cc.step();
     ADD_FAILURE() << "no error";
   } catch (const std::runtime_error& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("step 1 (t = 0): capsule 0: ibm: spreading with the cosine kernel"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("step 1 (t = 0): capsule 0: ibm: face spreading with the cosine kernel"));
     EXPECT_THAT(e.what(), ::testing::HasSubstr("refine to level 4 around the membrane"));
   }
   fluid::Adaptation<3> adaptation(ns, {.min_level = 0});

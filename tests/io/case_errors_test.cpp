@@ -69,6 +69,20 @@ TEST(io_case_errors, NegativeTimeStep) {
               HasSubstr("case.toml: time.dt = -0.001: must be > 0"));
 }
 
+// time.node_scheme and fluid.multigrid.fail_on_unconverged (issue 17): read, written back,
+// and a word outside the list refused naming the key.
+TEST(io_case_errors, NodeSchemeAndUnconvergedFailureKeys) {
+  const CaseConfig c = parse_case_text(
+      std::string(kBase) + "[fluid.multigrid]\nfail_on_unconverged = true\n[time]\nnode_scheme = \"midpoint\"\n", "c");
+  EXPECT_EQ(c.time.node_scheme, NodeScheme::midpoint);
+  EXPECT_TRUE(c.fluid.multigrid.fail_on_unconverged);
+  EXPECT_EQ(parse_case_text(to_toml(c), "c"), c);
+  EXPECT_EQ(parse_case_text(std::string(kBase), "c").time.node_scheme, NodeScheme::euler);
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\nnode_scheme = \"rk4\"\n"), HasSubstr("time.node_scheme"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid.multigrid]\nfail_on_unconverged = 1\n"),
+              HasSubstr("fluid.multigrid.fail_on_unconverged"));
+}
+
 TEST(io_case_errors, MaxLevelBelowMinLevel) {
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmin_level = 5\nmax_level = 3\n"),
               HasSubstr("adapt.max_level = 3: must be >= adapt.min_level (5)"));
@@ -248,9 +262,12 @@ TEST(io_case_errors, CapsuleWithinTheKernelsReachOfAWall) {
   const std::string capsule = std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [0, 0.46, 0]\n";
   const std::string e = error_of(capsule);
   EXPECT_THAT(e, HasSubstr("capsule[0].centre = [0.0, 0.46, 0.0]: the capsule is 0.04 from a side along y, "
-                           "within its kernels' reach (0.04688"));
-  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45"), "c"));
-  // The hat kernel alone reaches half a cell.
+                           "within its kernels' reach (0.0625"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.43"), "c"));
+  // Staggered stencils reach W/2 cells, the cell-centred ones (W - 1)/2.
+  EXPECT_THAT(error_of(replace(capsule, "0.46", "0.45")), HasSubstr("within its kernels' reach (0.0625"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45") + "staggered = false\n", "c"));
+  // The hat kernel alone reaches one cell.
   EXPECT_NO_THROW((void)parse_case_text(capsule + "spread_kernel = \"hat\"\n", "c"));
   // Along a periodic direction there is no side to reach.
   EXPECT_NO_THROW((void)parse_case_text(std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [-3.5, 0, 0]\n", "c"));
