@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "app_support.hpp"
+#include "small_cavity.hpp"
 
 namespace capsflow::app {
 namespace {
@@ -11,22 +12,7 @@ namespace {
 using namespace testing;
 using ::testing::HasSubstr;
 
-const char* kCavity = R"(name = "c"
-dimension = 2
-[domain]
-roots = [1, 1]
-[fluid.boundary]
-x_lo = { type = "wall" }
-x_hi = { type = "wall" }
-y_lo = { type = "wall" }
-y_hi = { type = "moving_wall", velocity = [1.0, 0.0] }
-[adapt]
-min_level = 3
-max_level = 4
-[time]
-dt = 0.01
-t_end = 0.02
-)";
+const std::string kCavity = test_cases::small_cavity();
 
 // Runs a bad case into an output directory holding a marker; checks status, message and
 // that the directory is unchanged.

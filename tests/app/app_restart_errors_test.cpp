@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "app_support.hpp"
+#include "small_cavity.hpp"
 #include "io/checkpoint.hpp"
 
 namespace capsflow::app {
@@ -19,24 +20,7 @@ namespace {
 using namespace testing;
 using ::testing::HasSubstr;
 
-const char* kCavity = R"(name = "c"
-dimension = 2
-[domain]
-roots = [1, 1]
-[fluid.boundary]
-x_lo = { type = "wall" }
-x_hi = { type = "wall" }
-y_lo = { type = "wall" }
-y_hi = { type = "moving_wall", velocity = [1.0, 0.0] }
-[adapt]
-min_level = 3
-max_level = 4
-[time]
-dt = 0.01
-t_end = 0.02
-[output]
-checkpoint = true
-)";
+const std::string kCavity = test_cases::small_cavity("[output]\ncheckpoint = true\n");
 
 // A finished run (out/) with its final checkpoint, and the case to continue it.
 class AppRestartErrors : public ::testing::Test {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "../app/small_cavity.hpp"
 #include "fuzz_support.hpp"
 #include "io/checkpoint.hpp"
 #include "mutator.hpp"
@@ -120,25 +121,7 @@ TEST(FuzzCheckpoint, CorruptionIsRefusedOrHarmless) {
 // Through the binary: a small cavity run with its final checkpoint, damaged copies
 // restarted into fresh folders. Exit 2 with one line, or exit 0 with the diagnostics of
 // the undamaged restart (wall-clock column aside).
-const char* kCavity = R"(name = "c"
-dimension = 2
-[domain]
-roots = [1, 1]
-[fluid.boundary]
-x_lo = { type = "wall" }
-x_hi = { type = "wall" }
-y_lo = { type = "wall" }
-y_hi = { type = "moving_wall", velocity = [1.0, 0.0] }
-[adapt]
-min_level = 3
-max_level = 4
-[time]
-dt = 0.01
-t_end = 0.02
-[output]
-checkpoint = true
-vtu = false
-)";
+const std::string kCavity = test_cases::small_cavity("[output]\ncheckpoint = true\nvtu = false\n");
 
 std::string without_wall_clock(const std::string& csv) {
   std::string out, line;
