@@ -6,7 +6,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+launcher=()  # ccache, where installed, makes a rebuild of unchanged files free
+if command -v ccache >/dev/null; then
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+fi
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "${launcher[@]}"
 cmake --build build -j "$(nproc)"
 # Tests run side by side, one OpenMP thread each (set per test in tests/CMakeLists.txt);
 # the validations labelled "long" (minutes each) run with: ctest --test-dir build -L long
