@@ -19,8 +19,6 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 using ::testing::StartsWith;
 
-long lines(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
-
 std::string quick(const std::string& extra) {
   return "run " + std::string(CAPSFLOW_CASES_DIR) + "/relaxation_quick.toml --quiet " + extra;
 }

@@ -28,8 +28,6 @@ std::string cavity(const std::string& extra) {
          extra;
 }
 
-long lines(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
-
 // Every file series.pvd lists, resolved against the .pvd's folder as ParaView does, is a
 // .vtu that VTK's reader opens; returns how many there were.
 int check_series(const fs::path& pvd) {

@@ -97,6 +97,25 @@ TEST(AppCases, ShortRunsWriteEveryOutput) {
     EXPECT_NE(reader->GetOutput()->GetCellData()->GetArray("pressure"), nullptr);
   }
 }
+// Restarts the run in dir/full from `checkpoint` in a copy of the folder (dir/part): every
+// diagnostics row but the wall clock, and the final membrane if any, must be the full run's.
+void expect_restart_repeats_run(const fs::path& dir, const std::string& base, const std::string& checkpoint,
+                                const std::vector<std::vector<std::string>>& full) {
+  fs::copy(dir / "full", dir / "part", fs::copy_options::recursive);
+  const auto again =
+      capsflow(base + "--out " + (dir / "part").string() + " --restart " + (dir / "part" / checkpoint).string(), dir);
+  ASSERT_EQ(again.status, 0) << again.err;
+  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
+  ASSERT_EQ(resumed.size(), full.size());
+  for (std::size_t i = 1; i < full.size(); ++i)
+    for (std::size_t c = 0; c < full[i].size(); ++c) {
+      if (full[0][c] != "wall_s") {
+        ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+      }
+    }
+  EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
+}
+
 
 // Interrupted after a checkpoint and restarted, a run writes the same diagnostics, to the
 // last digit (wall time aside), as the run that went straight through.
@@ -110,15 +129,7 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
   ASSERT_GT(full.size(), 20u);
   // The run "killed" after step 10: its directory as it was then is the full run's with
   // the checkpoint of step 10; a restart must rewrite the rest identically.
-  fs::copy(dir / "full", dir / "part", fs::copy_options::recursive);
-  const auto again = capsflow(base + "--out " + (dir / "part").string() + " --restart " +
-                                  (dir / "part" / "checkpoint_000010.h5").string(), dir);
-  ASSERT_EQ(again.status, 0) << again.err;
-  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
-  ASSERT_EQ(resumed.size(), full.size());
-  for (std::size_t i = 1; i < full.size(); ++i)
-    for (std::size_t c = 0; c < full[i].size(); ++c)
-      if (full[0][c] != "wall_s") ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
+  expect_restart_repeats_run(dir, base, "checkpoint_000010.h5", full);
 }
 
 }  // namespace
@@ -128,6 +139,7 @@ namespace capsflow::app {
 namespace {
 
 using namespace testing;
+
 
 // The quick seed case, a few steps: membrane snapshots and final positions are written, the
 // membrane columns are finite, and a restart with a capsule repeats the run exactly. The
@@ -174,16 +186,7 @@ TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   const auto nodes = rows_of(dir / "full" / "membrane_final.csv");
   EXPECT_EQ(nodes.size(), 643u);  // header + 642 nodes
   // Restart from step 5 in a copy of the directory: rows 6..10 are rewritten identically.
-  fs::copy(dir / "full", dir / "part", fs::copy_options::recursive);
-  const auto again = capsflow(base + "--out " + (dir / "part").string() + " --restart " +
-                                  (dir / "part" / "checkpoint_000005.h5").string(), dir);
-  ASSERT_EQ(again.status, 0) << again.err;
-  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
-  ASSERT_EQ(resumed.size(), full.size());
-  for (std::size_t i = 1; i < full.size(); ++i)
-    for (std::size_t c = 0; c < full[i].size(); ++c)
-      if (full[0][c] != "wall_s") ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
-  EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
+  expect_restart_repeats_run(dir, base, "checkpoint_000005.h5", full);
 }
 
 // A checkpoint at a step that is not a multiple of adapt.interval (here 4, interval 3):
@@ -200,16 +203,7 @@ TEST(AppCapsule, RestartBetweenAdaptationsRepeatsTheRunExactly) {
   ASSERT_EQ(r.status, 0) << r.err;
   const auto full = rows_of(dir / "full" / "diagnostics.csv");
   ASSERT_EQ(full.size(), 11u);
-  fs::copy(dir / "full", dir / "part", fs::copy_options::recursive);
-  const auto again = capsflow(base + "--out " + (dir / "part").string() + " --restart " +
-                                  (dir / "part" / "checkpoint_000004.h5").string(), dir);
-  ASSERT_EQ(again.status, 0) << again.err;
-  const auto resumed = rows_of(dir / "part" / "diagnostics.csv");
-  ASSERT_EQ(resumed.size(), full.size());
-  for (std::size_t i = 1; i < full.size(); ++i)
-    for (std::size_t c = 0; c < full[i].size(); ++c)
-      if (full[0][c] != "wall_s") ASSERT_EQ(resumed[i][c], full[i][c]) << "row " << i << " column " << full[0][c];
-  EXPECT_EQ(slurp(dir / "part" / "membrane_final.csv"), slurp(dir / "full" / "membrane_final.csv"));
+  expect_restart_repeats_run(dir, base, "checkpoint_000004.h5", full);
 }
 
 // The command's --adapt switch on the quick seed case (dx = 1/16, 642 nodes, 50 steps to

@@ -2,6 +2,7 @@
 // Running the capsflow binary from tests: exit status, stderr, a scratch directory.
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +25,9 @@ inline fs::path scratch(const std::string& name) {
   fs::create_directories(dir);
   return dir;
 }
+
+// Lines in a captured stderr (each ends in a newline).
+inline long lines(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
 
 inline std::string slurp(const fs::path& p) {
   std::ifstream in(p);
