@@ -86,16 +86,17 @@ double NavierStokes<D>::stable_dt() const {
   double dt = std::min(options_.dt, dt_cap_);
   if (options_.cfl == 0.0) return dt;
   // From the cell velocities (a checkpointed field), so a restarted run repeats the steps.
-  double fastest = 0.0;  // max |u_d| / h over the leaves
+  double fastest = 0.0;  // max |u_d| / h over the (owned) leaves
   for (int l = 0; l <= tree_.depth(); ++l) {
     const tree::Level<D>& lv = tree_.level(l);
     const double inv_h = 1.0 / tree_.cell_size(l);
 #pragma omp parallel for schedule(static) reduction(max : fastest) if (lv.n_active > tree::kParallelMin)
     for (Index i = 0; i < lv.n_active; ++i) {
-      if (!lv.leaf[i]) continue;
+      if (!lv.leaf[i] || !tree_.owns(lv.base + i)) continue;
       for (int d = 0; d < D; ++d) fastest = std::max(fastest, std::abs(tree_.values(u_[d])[lv.base + i]) * inv_h);
     }
   }
+  fastest = tree_.global_max(fastest);
   return fastest > 0.0 ? std::min(dt, options_.cfl / fastest) : dt;
 }
 
@@ -246,32 +247,39 @@ void NavierStokes<D>::centred_gradient(double dt) {
       tree_.values(u_[d])[c] += dt * g;
     }
   });
+  // Distributed: a ghost's faces may lie past the ghost layer; its owner's values instead.
+  for (int d = 0; d < D; ++d) {
+    tree_.exchange_all(tree_.values(g_[d]));
+    tree_.exchange_all(tree_.values(u_[d]));
+  }
 }
 
 template <int D>
 bool NavierStokes<D>::leaves_finite() const {
-  for (const Index c : tree_.leaves()) {
+  std::int64_t bad = 0;
+  for (const Index c : tree_.owned_leaves()) {
     for (int d = 0; d < D; ++d)
-      if (!std::isfinite(tree_.values(u_[d])[c])) return false;
-    if (!std::isfinite(tree_.values(p_)[c])) return false;
+      if (!std::isfinite(tree_.values(u_[d])[c])) bad = 1;
+    if (!std::isfinite(tree_.values(p_)[c])) bad = 1;
+    if (bad) break;
   }
-  return true;
+  return tree_.global_max(bad) == 0;
 }
 
 template <int D>
 double NavierStokes<D>::max_divergence() {
   divergence<D>(tree_, uf_, div_);
   double worst = 0.0;
-  for (const Index c : tree_.leaves()) worst = std::max(worst, std::abs(div_[c]));
-  return worst;
+  for (const Index c : tree_.owned_leaves()) worst = std::max(worst, abs_or_infinity(div_[c]));
+  return tree_.global_max(worst);
 }
 
 template <int D>
 double NavierStokes<D>::max_velocity_component() const {
   double fastest = 0.0;
-  for (const Index c : tree_.leaves())
+  for (const Index c : tree_.owned_leaves())
     for (int d = 0; d < D; ++d) fastest = std::max(fastest, std::abs(tree_.values(u_[d])[c]));
-  return fastest;
+  return tree_.global_max(fastest);
 }
 
 template <int D>

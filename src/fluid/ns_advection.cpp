@@ -40,7 +40,12 @@ void slopes(const tree::Tree<D>& t, std::span<const double> f, bool limited,
       out[d][c] = limited ? tree::minmod(hi - f[c], f[c] - lo) / h : (hi - lo) / (2.0 * h);
     }
   });
-  for (int d = 0; d < D; ++d) inject_halo<D>(t, out[d]);
+  // Distributed: a ghost's slope from its owner (its own stencil may reach past the ghost
+  // layer), before the halos copy it.
+  for (int d = 0; d < D; ++d) {
+    t.exchange_all(out[d]);
+    inject_halo<D>(t, out[d]);
+  }
 }
 
 // The BCG face value of f (see above); `vt(e, i)` is the transverse velocity of cell i.
@@ -86,6 +91,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       laplacian.apply_leaves(u[d], src);
       tree_.for_each_leaf([&](Index c) { src[c] += gd[c]; });
     }
+    tree_.exchange_all(src);  // distributed: as the slopes
     inject_halo<D>(tree_, src);
     g[d] = src;
   }
@@ -103,6 +109,9 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       uf_[d][hi] = v + 0.25 * dt * (g[d][lo] + g[d][hi]);
     });
   }
+  // Distributed: the ghosts' lower faces from their owners; the advection's transverse
+  // velocities read the faces of the cells next to the owned ones.
+  for (int d = 0; d < D; ++d) tree_.exchange_all(uf_[d]);
   restrict_faces<D>(tree_, uf_);
   stats.prediction_cycles += project(uf_, pf_, 0.5 * dt, options_.projection, stats);
 
@@ -125,6 +134,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       for (int d = 0; d < D; ++d) div += flux[d][row[2 * d + 1]] - flux[d][cell];
       uc[cell] -= dt * div / h;
     });
+    tree_.exchange_all(uc);  // distributed: the ghosts' new values from their owners
   }
 }
 

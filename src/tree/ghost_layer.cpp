@@ -6,72 +6,15 @@
 
 #include <fmt/format.h>
 
+#include "parallel/all_to_all.hpp"
+#include "tree/curve_stencil.hpp"
+
 namespace capsflow::tree {
 
 namespace {
 
 void check(int code, const char* what) {
   if (code != MPI_SUCCESS) throw std::runtime_error(fmt::format("ghost layer: {} failed (MPI error {})", what, code));
-}
-
-// The curve positions a cell of level l covers: [position, position + span).
-template <int D>
-Key span_of(int level, int max_level) {
-  return Key{1} << (D * (max_level - level));
-}
-
-// The cells of level m within `width` cells of the cell at coords c (wrapped across periodic
-// sides, none beyond a wall), the cell itself excluded.
-template <int D>
-void stencil_cells(const TreeOptions<D>& o, int m, const Coords<D>& c, int width, std::vector<CurveCell>& out) {
-  const int side = 2 * width + 1;
-  int count = 1;
-  for (int d = 0; d < D; ++d) count *= side;
-  for (int n = 0; n < count; ++n) {
-    Coords<D> x{};
-    bool inside = true, self = true;
-    for (int d = 0, rest = n; d < D; ++d, rest /= side) {
-      const int offset = rest % side - width;
-      self = self && offset == 0;
-      const std::int64_t extent = static_cast<std::int64_t>(o.roots[d]) << m;
-      std::int64_t v = c[d] + offset;
-      if (v < 0 || v >= extent) {
-        if (!o.periodic[d]) inside = false;
-        v = ((v % extent) + extent) % extent;
-      }
-      x[d] = static_cast<std::int32_t>(v);
-    }
-    if (inside && !self) out.push_back({curve_position<D>(m, morton_encode<D>(x), o.max_level), m});
-  }
-}
-
-// Exchanges per-rank lists of uint64 words (counts first, then the words): what each rank
-// receives from each other rank, grouped by sender.
-std::vector<std::vector<std::uint64_t>> all_to_all(const parallel::Comm& comm,
-                                                   const std::vector<std::vector<std::uint64_t>>& send) {
-  const int p = comm.size();
-  std::vector<int> send_counts(static_cast<std::size_t>(p)), recv_counts(static_cast<std::size_t>(p));
-  for (int q = 0; q < p; ++q) send_counts[static_cast<std::size_t>(q)] = static_cast<int>(send[static_cast<std::size_t>(q)].size());
-  check(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm.handle()), "MPI_Alltoall");
-  std::vector<int> send_offsets(static_cast<std::size_t>(p), 0), recv_offsets(static_cast<std::size_t>(p), 0);
-  std::vector<std::uint64_t> send_words, recv_words;
-  for (int q = 0; q < p; ++q) {
-    const auto u = static_cast<std::size_t>(q);
-    send_offsets[u] = static_cast<int>(send_words.size());
-    send_words.insert(send_words.end(), send[u].begin(), send[u].end());
-    recv_offsets[u] = q == 0 ? 0 : recv_offsets[u - 1] + recv_counts[u - 1];
-  }
-  recv_words.resize(static_cast<std::size_t>(recv_offsets.back() + recv_counts.back()));
-  check(MPI_Alltoallv(send_words.data(), send_counts.data(), send_offsets.data(), MPI_UINT64_T, recv_words.data(),
-                      recv_counts.data(), recv_offsets.data(), MPI_UINT64_T, comm.handle()),
-        "MPI_Alltoallv");
-  std::vector<std::vector<std::uint64_t>> received(static_cast<std::size_t>(p));
-  for (int q = 0; q < p; ++q) {
-    const auto u = static_cast<std::size_t>(q);
-    const auto first = recv_words.begin() + recv_offsets[u];
-    received[u].assign(first, first + recv_counts[u]);
-  }
-  return received;
 }
 
 }  // namespace
@@ -114,7 +57,7 @@ GhostLayer<D>::GhostLayer(const parallel::Comm& comm, const Partition& partition
       }
     }
   }
-  const auto asked = all_to_all(comm, requests);
+  const auto asked = parallel::all_to_all(comm, requests);
 
   // 2. The leaves overlapping each asked cell: those starting inside its range (itself or its
   //    descendants) and the one starting before it if that one contains it (an ancestor).
@@ -146,7 +89,7 @@ GhostLayer<D>::GhostLayer(const parallel::Comm& comm, const Partition& partition
     }
     peers_.push_back({.rank = q, .mirrors = std::move(mirrors)});
   }
-  const auto answered = all_to_all(comm, answers);
+  const auto answered = parallel::all_to_all(comm, answers);
 
   // 3. The ghosts, by owner: each owner's answer is in its curve order, and the owners' ranges
   //    follow the curve, so the concatenation is in curve order.

@@ -21,17 +21,11 @@
 #include <vector>
 
 #include "parallel/comm.hpp"
+#include "tree/curve_stencil.hpp"
 #include "tree/partition.hpp"
 #include "tree/tree_options.hpp"
 
 namespace capsflow::tree {
-
-// A cell on the curve: its position and level (a parent shares its first child's position).
-struct CurveCell {
-  Key position = 0;
-  int level = 0;
-  bool operator==(const CurveCell&) const = default;
-};
 
 template <int D>
 class GhostLayer {

@@ -28,6 +28,13 @@ struct LocalForest {
   Index owned = 0, ghosts = 0, remote = 0;  // leaves of each role
 };
 
+// The coarsest balanced tree in which every given cell (curve order) exists: leaves are
+// split while a given cell lies deeper inside them. Cells of one balanced forest come out
+// as cells of the same level; one that is a leaf there stays a leaf unless a deeper given
+// cell lies inside it.
+template <int D>
+[[nodiscard]] Tree<D> tree_refined_to(const TreeOptions<D>& options, std::span<const CurveCell> cells);
+
 // `owned` and `ghosts` in curve order (GhostLayer::ghosts() is). Throws std::logic_error if a
 // given leaf does not come out as a leaf (the inputs were not leaves of one balanced forest).
 template <int D>

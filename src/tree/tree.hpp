@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "common/assert.hpp"
+#include "parallel/exact_sum.hpp"
 #include "tree/boundary.hpp"
 #include "tree/geometry.hpp"
 #include "tree/morton.hpp"
@@ -176,6 +177,24 @@ struct AdaptOptions {
   bool allow_coarsening = true;
 };
 
+// A partitioned run's link between its local tree and the other ranks
+// (tree/distributed_forest.hpp implements it; docs/parallel.md). The tree calls it inside
+// sync() and the multigrid inside its cycle; a tree without one is the whole forest and
+// makes no call. Every rank must call exchange() for the same levels in the same order:
+// loops that exchange run over [0, global_depth()] on every rank.
+class Distribution {
+ public:
+  virtual ~Distribution() = default;
+  // Every ghost cell of level l (a cell of another rank that a stencil of this rank reads)
+  // gets its owner's value of v.
+  virtual void exchange(int level, std::span<double> v) const = 0;
+  // One local value per rank combined over the ranks (parallel/reduce.hpp); sums exact.
+  virtual double sum(const parallel::ExactSum& local) const = 0;
+  virtual double max(double local) const = 0;  // NaN from any rank wins
+  virtual std::int64_t sum(std::int64_t local) const = 0;
+  virtual std::int64_t max(std::int64_t local) const = 0;
+};
+
 template <int D>
 class Tree {
  public:
@@ -191,6 +210,32 @@ class Tree {
     return levels_[l];
   }
   std::span<const Index> leaves() const { return leaves_; }
+
+  // --- distribution (one rank: no distribution, every cell owned)
+  // Makes this tree the local tree of a partitioned run: `owned` has one entry per cell
+  // (nonzero: this rank owns it; only active cells are read). Collective (the global depth).
+  void set_distribution(const Distribution* d, std::vector<std::uint8_t> owned);
+  const Distribution* distribution() const { return dist_; }
+  bool distributed() const { return dist_ != nullptr; }
+  bool owns(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] != 0; }
+  // The leaves this rank computes and reduces over: every leaf on one rank.
+  std::span<const Index> owned_leaves() const { return dist_ ? std::span<const Index>(owned_leaves_) : leaves_; }
+  // The deepest level on any rank: the range of every loop that exchanges.
+  int global_depth() const { return global_depth_; }
+  void exchange_level(int l, std::span<double> v) const {
+    if (dist_) dist_->exchange(l, v);
+  }
+  // Ghosts of every level, coarse to fine.
+  void exchange_all(std::span<double> v) const {
+    if (dist_)
+      for (int l = 0; l <= global_depth_; ++l) dist_->exchange(l, v);
+  }
+  double global_sum(const parallel::ExactSum& local) const { return dist_ ? dist_->sum(local) : local.value(); }
+  double global_max(double local) const { return dist_ ? dist_->max(local) : local; }
+  std::int64_t global_sum(std::int64_t local) const { return dist_ ? dist_->sum(local) : local; }
+  std::int64_t global_max(std::int64_t local) const { return dist_ ? dist_->max(local) : local; }
+  // Leaves over all ranks.
+  std::int64_t global_leaves() const { return global_sum(static_cast<std::int64_t>(owned_leaves().size())); }
 
   // --- cells
   int level_of(Index c) const;
@@ -255,6 +300,10 @@ class Tree {
   void sync(std::span<double> v, const BoundaryConditions<D>& bc,
             Prolongation p = Prolongation::linear) const;
   void sync(FieldId f);
+  // Parents of levels [coarsest, depth) restricted bottom-up; distributed, the ghosts of
+  // the leaves are first brought from their owners and each level's after its restriction,
+  // so every cell a stencil of this rank reads holds the owner's value.
+  void restrict_and_exchange(std::span<double> v, int coarsest = 0) const;
   // sync for readers of the leaves and their face neighbours only (the multigrid's
   // residual): parents are restricted only on the levels a halo prolongation reads (none
   // on a uniform tree) and only the halo groups in Level::halo_read are filled; the other
@@ -303,6 +352,10 @@ class Tree {
   std::vector<Level<D>> scratch_;  // the next tree during a rebuild
   std::vector<Index> leaves_;
   int depth_ = 0;
+  int global_depth_ = 0;  // depth_ on one rank
+  const Distribution* dist_ = nullptr;
+  std::vector<std::uint8_t> owned_;  // per cell, distributed only
+  std::vector<Index> owned_leaves_;
   Index num_cells_ = 0;
 
   std::vector<FieldSpec<D>> fields_;

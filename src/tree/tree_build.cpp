@@ -108,6 +108,7 @@ Tree<D>::Tree(const TreeOptions<D>& options) : options_(options) {
   build_level0(levels_[0], false);
   std::fill(levels_[0].leaf.begin(), levels_[0].leaf.end(), std::uint8_t{1});
   depth_ = 0;
+  global_depth_ = 0;
   num_cells_ = levels_[0].size();
   collect_leaves();
   collect_halo_read();
@@ -394,12 +395,37 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
   transfer_fields(next, l, cells);
   std::swap(levels_, scratch_);
   depth_ = l;
+  // A rebuild makes a new tree: a distributed adapt (distributed_adapt.hpp) sets the
+  // distribution of the new one; the old plans do not fit it.
+  global_depth_ = depth_;
+  dist_ = nullptr;
+  owned_.clear();
+  owned_leaves_.clear();
   num_cells_ = cells;
   collect_leaves();
   collect_halo_read();
   // Checked builds: the whole structure after every change (full passes; Release skips).
   CAPSFLOW_ASSERT(topology_violation(*this).empty(), topology_violation(*this));
   CAPSFLOW_ASSERT(balance_violation(*this).empty(), balance_violation(*this));
+}
+
+template <int D>
+void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> owned) {
+  if (d == nullptr) {
+    dist_ = nullptr;
+    owned_.clear();
+    owned_leaves_.clear();
+    global_depth_ = depth_;
+    return;
+  }
+  if (owned.size() != static_cast<std::size_t>(num_cells_))
+    throw std::invalid_argument("Tree::set_distribution: the owned mask needs one entry per cell");
+  dist_ = d;
+  owned_ = std::move(owned);
+  owned_leaves_.clear();
+  for (const Index c : leaves_)
+    if (owned_[static_cast<std::size_t>(c)]) owned_leaves_.push_back(c);
+  global_depth_ = static_cast<int>(d->max(static_cast<std::int64_t>(depth_)));
 }
 
 template <int D>

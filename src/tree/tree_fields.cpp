@@ -162,10 +162,25 @@ void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D
 }
 
 template <int D>
+void Tree<D>::restrict_and_exchange(std::span<double> v, int coarsest) const {
+  if (!dist_) {
+    for (int l = depth_ - 1; l >= coarsest; --l) restrict_level(l, v);
+    return;
+  }
+  // The leaves' ghosts first (the caller's values); then each level's parents, restricted
+  // where this rank owns them (their children are owned or ghosts) and exchanged.
+  exchange_all(v);
+  for (int l = global_depth_ - 1; l >= coarsest; --l) {
+    if (l < depth_) restrict_level(l, v);
+    exchange_level(l, v);
+  }
+}
+
+template <int D>
 void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync: the field does not have num_cells entries");
   if (p == Prolongation::none) p = Prolongation::linear;
-  for (int l = depth_ - 1; l >= 0; --l) restrict_level(l, v);
+  restrict_and_exchange(v, 0);
   for (int l = 0; l <= depth_; ++l) {
     fill_halo(l, v, p);
     fill_ghosts(l, v, bc);
@@ -183,7 +198,8 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
       coarsest_read = l - 1;
       break;
     }
-  for (int l = depth_ - 1; l >= coarsest_read; --l) restrict_level(l, v);
+  // Distributed: the ranks must exchange the same levels, whatever their own halos.
+  restrict_and_exchange(v, dist_ ? 0 : coarsest_read);
   for (int l = 0; l <= depth_; ++l) {
     fill_halo(l, v, p, HaloCells::face_read);
     fill_ghosts(l, v, bc);
@@ -244,6 +260,7 @@ template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
+template void Tree<2>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
 template FieldId Tree<3>::add_field(FieldSpec<3>);
@@ -253,6 +270,7 @@ template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);
+template void Tree<3>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::transfer_fields(const std::vector<Level<3>>&, int, Index);
 

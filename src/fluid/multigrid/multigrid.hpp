@@ -23,6 +23,7 @@
 
 #include "common/assert.hpp"
 #include "fluid/multigrid/multigrid_options.hpp"
+#include "parallel/compensated_sum.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::fluid {
@@ -43,25 +44,34 @@ struct MultigridWorkspace {
 
 namespace detail {
 
-// Volume-weighted sum of f(c) over the leaves, and the leaves' volume.
+// Volume-weighted sum of f(c) over the leaves (a distributed tree: the owned leaves of
+// every rank), and the leaves' volume. Compensated partial sums, added exactly: the same
+// to the last bit, in practice, however the leaves are split over threads and ranks (the
+// residual histories of singular solves on N ranks match one rank's).
 template <int D, class F>
 std::pair<double, double> leaf_integral(const tree::Tree<D>& t, F&& f) {
-  double sum = 0.0, volume = 0.0;
+  parallel::ExactSum sum, volume;
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double vol = std::pow(t.cell_size(l), D);
-    double s = 0.0;
-    tree::Index count = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s, count) if (lv.n_active > tree::kParallelMin)
-    for (tree::Index i = 0; i < lv.n_active; ++i)
-      if (lv.leaf[i]) {
-        s += f(lv.base + i);
-        ++count;
+#pragma omp parallel if (lv.n_active > tree::kParallelMin)
+    {
+      parallel::CompensatedSum s;
+      double count = 0.0;
+#pragma omp for schedule(static) nowait
+      for (tree::Index i = 0; i < lv.n_active; ++i)
+        if (lv.leaf[i] && t.owns(lv.base + i)) {
+          s.add(f(lv.base + i));
+          count += 1.0;
+        }
+#pragma omp critical(capsflow_leaf_integral)
+      {
+        s.add_scaled_to(sum, vol);
+        parallel::CompensatedSum{count, 0.0}.add_scaled_to(volume, vol);
       }
-    sum += s * vol;
-    volume += count * vol;
+    }
   }
-  return {sum, volume};
+  return {t.global_sum(sum), t.global_sum(volume)};
 }
 
 template <int D>
@@ -78,11 +88,11 @@ double leaf_dot(const tree::Tree<D>& t, std::span<const double> x, std::span<con
 template <int D>
 double leaf_max_abs(const tree::Tree<D>& t, std::span<const double> v) {
   double worst = 0.0;
-  const auto leaves = t.leaves();
+  const auto leaves = t.owned_leaves();
   const auto n = static_cast<tree::Index>(leaves.size());
 #pragma omp parallel for schedule(static) reduction(max : worst) if (n > tree::kParallelMin)
   for (tree::Index i = 0; i < n; ++i) worst = std::max(worst, abs_or_infinity(v[leaves[i]]));
-  return worst;
+  return t.global_max(worst);
 }
 
 // Whether every span has one entry per cell of t (checked builds: fields passed to the
@@ -113,8 +123,7 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
   const auto& t = op.tree();
   CAPSFLOW_ASSERT(detail::spans_cells(t, {res, da, scratch}) && (corrected.empty() || detail::spans_cells(t, {corrected})),
                   "multigrid vcycle: a field does not have the tree's num_cells entries");
-  if (!restricted)
-    for (int l = t.depth() - 1; l >= 0; --l) t.restrict_level(l, res);
+  if (!restricted) t.restrict_and_exchange(res);  // distributed: the ghosts' residuals too
   for (int l = 0; l <= t.depth(); ++l) {
     if (l == 0) {
       const auto& lv = t.level(0);
@@ -144,13 +153,16 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   const bool singular = op.singular();
   if (!opt.warm_start) t.for_each_leaf([&](tree::Index c) { a[c] = 0.0; });
 
-  // The residual comes restricted, unless the mean is then removed from its leaves.
-  const bool restricted = !singular;
+  // The residual comes restricted, unless the mean is then removed from its leaves, or the
+  // tree is distributed (the ghosts' residuals come from their owners first).
+  const bool restricted = !singular && !t.distributed();
   auto compute_residual = [&] {
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
     t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
     const double worst = op.residual(a, b, res);
-    if (!singular) return worst;
+    // Distributed: the maximum over the owned leaves only (a ghost's stencil may reach
+    // cells this rank does not have), over all ranks.
+    if (!singular) return t.distributed() ? detail::leaf_max_abs<D>(t, res) : worst;
     detail::remove_mean<D>(t, res);
     return detail::leaf_max_abs<D>(t, res);
   };
@@ -172,6 +184,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
          std::isfinite(current)) {
     if (!opt.krylov) {
       vcycle(op, res, da, scratch, opt, a, restricted);  // a += da
+      t.exchange_all(a);  // the ghosts' a from their owners (their da was fused in before the exchange)
     } else {
       // z = B r (a cycle writes res on the parents only: the leaves stay for the step).
       vcycle(op, res, da, scratch, opt, {}, restricted);

@@ -1,0 +1,363 @@
+#include "tree/distributed_forest.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "parallel/all_to_all.hpp"
+#include "parallel/reduce.hpp"
+#include "tree/local_forest.hpp"
+
+namespace capsflow::tree {
+
+namespace {
+
+void check(int code, const char* what) {
+  if (code != MPI_SUCCESS)
+    throw std::runtime_error(fmt::format("distributed forest: {} failed (MPI error {})", what, code));
+}
+
+// Answers to "does this cell exist": not at all, as a leaf, as a parent.
+enum : std::uint64_t { kAbsent = 0, kLeafCell = 1, kParentCell = 2 };
+
+// Messages of level l carry this tag: exchanges of different levels never match.
+constexpr int kTagBase = 7400;
+
+template <int D>
+Index local_index(const Tree<D>& t, const CurveCell& c) {
+  const Index i = t.find(c.level, morton_decode<D>(key_of<D>(c, t.max_level())));
+  if (i == kNone || i >= t.level(c.level).active_end())
+    throw std::logic_error(fmt::format("distributed forest: cell (position {}, level {}) is not an active cell of the "
+                                       "local tree",
+                                       c.position, c.level));
+  return i;
+}
+
+}  // namespace
+
+template <int D>
+DistributedForest<D>::DistributedForest(const parallel::Comm& comm, const Partition& partition,
+                                        const TreeOptions<D>& o, std::span<const CurveCell> owned_leaves, int width)
+    : comm_(comm), partition_(partition), options_(o), owned_(owned_leaves.begin(), owned_leaves.end()) {
+  if (partition.ranks() != comm.size())
+    throw std::invalid_argument(
+        fmt::format("distributed forest: a partition of {} ranks on {}", partition.ranks(), comm.size()));
+  const int me = comm.rank(), ranks = comm.size(), top = o.max_level;
+  const Key begin = partition.split(me), end = partition.split(me + 1);
+  auto mine = [&](Key position) { return position >= begin && position < end; };
+  for (const CurveCell& c : owned_)
+    if (!mine(c.position)) throw std::invalid_argument("distributed forest: a leaf outside this rank's range");
+
+  // 1. The centres of this rank's stencils per level, (a) and (b), and the children (c).
+  std::vector<std::vector<Key>> centres(static_cast<std::size_t>(top) + 1);
+  std::vector<CurveCell> asked;  // remote cells this rank reads, before deduplication
+  // The last ancestor pushed per level: leaves come in curve order, so their chains of
+  // ancestors share a prefix, and a walk up stops where it meets the previous chain.
+  std::vector<Key> last_ancestor(static_cast<std::size_t>(top) + 1, ~Key{0});
+  for (const CurveCell& leaf : owned_) {
+    const int m = leaf.level;
+    const Key key = key_of<D>(leaf, top);
+    centres[static_cast<std::size_t>(m)].push_back(key);
+    // Every ancestor is a centre: a prolongation into level l reads the parent's
+    // neighbours, which may be halo cells of level l-1 prolonged from the grandparent's
+    // neighbourhood, and so on up (each step stays within 2 cells of the ancestor).
+    for (int l = m - 1; l >= 0; --l) {
+      const Key anc = key >> (D * (m - l));
+      if (last_ancestor[static_cast<std::size_t>(l)] == anc) break;
+      last_ancestor[static_cast<std::size_t>(l)] = anc;
+      centres[static_cast<std::size_t>(l)].push_back(anc);
+    }
+    if (m < top) {
+      auto children_of = [&](const CurveCell& x) {
+        const Key k = key_of<D>(x, top) << D;
+        for (Key b = 0; b < Key{kChildren<D>}; ++b) {
+          const CurveCell child{curve_position<D>(m + 1, k | b, top), m + 1};
+          if (!mine(child.position)) asked.push_back(child);
+        }
+      };
+      children_of(leaf);
+      for_each_stencil_cell<D>(o, m, morton_decode<D>(key), 1, children_of);
+    }
+  }
+  for (int l = 0; l <= top; ++l) {
+    auto& keys = centres[static_cast<std::size_t>(l)];
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    for (const Key k : keys)
+      for_each_stencil_cell<D>(o, l, morton_decode<D>(k), width, [&](const CurveCell& c) {
+        if (!mine(c.position)) asked.push_back(c);
+      });
+    std::vector<Key>().swap(keys);
+  }
+  std::sort(asked.begin(), asked.end(), curve_less);
+  asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
+
+  // 2. Ask each owner.
+  std::vector<std::vector<CurveCell>> asked_of(static_cast<std::size_t>(ranks));
+  std::vector<std::vector<std::uint64_t>> requests(static_cast<std::size_t>(ranks));
+  for (const CurveCell& c : asked) {
+    const int q = partition.owner(c.position);
+    asked_of[static_cast<std::size_t>(q)].push_back(c);
+    requests[static_cast<std::size_t>(q)].push_back(c.position);
+    requests[static_cast<std::size_t>(q)].push_back(static_cast<std::uint64_t>(c.level));
+  }
+  const auto incoming = parallel::all_to_all(comm, requests);
+
+  // 3. Answer: a cell exists iff one of this rank's leaves starts at its position at its
+  //    level or deeper (its first descendant); it is a leaf iff that leaf has its level.
+  std::vector<std::vector<std::uint64_t>> answers(static_cast<std::size_t>(ranks));
+  std::vector<std::vector<CurveCell>> mirrors(static_cast<std::size_t>(ranks));
+  for (int q = 0; q < ranks; ++q) {
+    const auto& words = incoming[static_cast<std::size_t>(q)];
+    for (std::size_t w = 0; w + 1 < words.size(); w += 2) {
+      const CurveCell c{words[w], static_cast<int>(words[w + 1])};
+      if (c.level < 0 || c.level > top || !mine(c.position))
+        throw std::runtime_error("distributed forest: asked for a cell this rank does not own");
+      const auto it = std::lower_bound(owned_.begin(), owned_.end(), CurveCell{c.position, 0}, curve_less);
+      std::uint64_t answer = kAbsent;
+      if (it != owned_.end() && it->position == c.position && it->level >= c.level)
+        answer = it->level == c.level ? kLeafCell : kParentCell;
+      answers[static_cast<std::size_t>(q)].push_back(answer);
+      if (answer != kAbsent) mirrors[static_cast<std::size_t>(q)].push_back(c);
+    }
+  }
+  const auto answered = parallel::all_to_all(comm, answers);
+
+  // 4. The ghosts, and the cells the local tree must hold.
+  required_ = owned_;
+  for (int q = 0; q < ranks; ++q) {
+    const auto u = static_cast<std::size_t>(q);
+    if (answered[u].size() != asked_of[u].size())
+      throw std::runtime_error("distributed forest: an owner answered a different number of cells");
+    PeerCells peer{.rank = q, .send = std::move(mirrors[u]), .receive = {}};
+    for (std::size_t i = 0; i < asked_of[u].size(); ++i) {
+      if (answered[u][i] == kAbsent) continue;
+      const CurveCell c = asked_of[u][i];
+      peer.receive.push_back(c);
+      required_.push_back(c);
+      if (answered[u][i] == kParentCell) required_.push_back({c.position, c.level + 1});
+    }
+    if (!peer.send.empty() || !peer.receive.empty()) peer_cells_.push_back(std::move(peer));
+  }
+  std::sort(required_.begin(), required_.end(), curve_less);
+  required_.erase(std::unique(required_.begin(), required_.end()), required_.end());
+}
+
+template <int D>
+Tree<D> DistributedForest<D>::make_tree() const {
+  return tree_refined_to<D>(options_, required_);
+}
+
+template <int D>
+void DistributedForest<D>::attach(Tree<D>& t) {
+  const int top = t.max_level();
+  level_peers_.assign(static_cast<std::size_t>(top) + 1, {});
+  for (const PeerCells& pc : peer_cells_) {
+    std::vector<Peer> per_level(static_cast<std::size_t>(top) + 1);
+    for (const CurveCell& c : pc.send) per_level[static_cast<std::size_t>(c.level)].send.push_back(local_index(t, c));
+    for (const CurveCell& c : pc.receive)
+      per_level[static_cast<std::size_t>(c.level)].receive.push_back(local_index(t, c));
+    for (int l = 0; l <= top; ++l) {
+      Peer& p = per_level[static_cast<std::size_t>(l)];
+      if (p.send.empty() && p.receive.empty()) continue;
+      p.rank = pc.rank;
+      level_peers_[static_cast<std::size_t>(l)].push_back(std::move(p));
+    }
+  }
+  const Key begin = partition_.split(comm_.rank()), end = partition_.split(comm_.rank() + 1);
+  std::vector<std::uint8_t> owned(static_cast<std::size_t>(t.num_cells()), 0);
+  for (int l = 0; l <= t.depth(); ++l) {
+    const Level<D>& lv = t.level(l);
+    for (Index i = 0; i < lv.n_active; ++i) {
+      const Key position = curve_position<D>(l, lv.keys[static_cast<std::size_t>(i)], top);
+      owned[static_cast<std::size_t>(lv.base + i)] = position >= begin && position < end;
+    }
+  }
+  t.set_distribution(this, std::move(owned));
+}
+
+template <int D>
+void DistributedForest<D>::exchange(int level, std::span<double> v) const {
+  if (level < 0 || level >= static_cast<int>(level_peers_.size())) return;
+  const auto& peers = level_peers_[static_cast<std::size_t>(level)];
+  if (peers.empty()) return;
+  send_buffers_.resize(peers.size());
+  receive_buffers_.resize(peers.size());
+  std::vector<MPI_Request> requests;
+  requests.reserve(2 * peers.size());
+  const int tag = kTagBase + level;
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    if (peers[k].receive.empty()) continue;
+    auto& b = receive_buffers_[k];
+    b.resize(peers[k].receive.size());
+    requests.emplace_back();
+    check(MPI_Irecv(b.data(), static_cast<int>(b.size()), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
+                    &requests.back()),
+          "MPI_Irecv");
+  }
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    if (peers[k].send.empty()) continue;
+    auto& b = send_buffers_[k];
+    b.resize(peers[k].send.size());
+    for (std::size_t i = 0; i < b.size(); ++i) b[i] = v[static_cast<std::size_t>(peers[k].send[i])];
+    values_sent_ += static_cast<std::int64_t>(b.size());
+    requests.emplace_back();
+    check(MPI_Isend(b.data(), static_cast<int>(b.size()), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
+                    &requests.back()),
+          "MPI_Isend");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  check(MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
+  waiting_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    const auto& b = receive_buffers_[k];
+    for (std::size_t i = 0; i < peers[k].receive.size(); ++i) v[static_cast<std::size_t>(peers[k].receive[i])] = b[i];
+  }
+}
+
+template <int D>
+double DistributedForest<D>::sum(const parallel::ExactSum& local) const {
+  return parallel::global_sum(comm_, local);
+}
+
+template <int D>
+double DistributedForest<D>::max(double local) const {
+  return parallel::global_max(comm_, local);
+}
+
+template <int D>
+std::int64_t DistributedForest<D>::sum(std::int64_t local) const {
+  return parallel::global_sum(comm_, local);
+}
+
+template <int D>
+std::int64_t DistributedForest<D>::max(std::int64_t local) const {
+  return parallel::global_max(comm_, local);
+}
+
+template <int D>
+typename DistributedForest<D>::Traffic DistributedForest<D>::traffic() const {
+  Traffic out;
+  for (const auto& peers : level_peers_) {
+    std::int64_t ghosts = 0, messages = 0;
+    for (const Peer& p : peers) {
+      ghosts += static_cast<std::int64_t>(p.receive.size());
+      out.mirror_cells += static_cast<std::int64_t>(p.send.size());
+      messages += p.send.empty() ? 0 : 1;
+    }
+    out.ghost_cells += ghosts;
+    out.messages += messages;
+    out.ghosts_per_level.push_back(ghosts);
+    out.messages_per_level.push_back(messages);
+  }
+  return out;
+}
+
+template <int D>
+std::optional<Tree<D>> DistributedForest<D>::gather_on_root(const Tree<D>& local) const {
+  const int fields = local.num_fields();
+  const auto leaves = local.owned_leaves();
+  std::vector<std::uint64_t> cells;
+  std::vector<double> values;
+  cells.reserve(2 * leaves.size());
+  values.reserve(leaves.size() * static_cast<std::size_t>(fields));
+  for (const Index c : leaves) {
+    const int l = local.level_of(c);
+    const Level<D>& lv = local.level(l);
+    cells.push_back(curve_position<D>(l, lv.keys[static_cast<std::size_t>(c - lv.base)], local.max_level()));
+    cells.push_back(static_cast<std::uint64_t>(l));
+    for (int f = 0; f < fields; ++f) values.push_back(local.values(f)[static_cast<std::size_t>(c)]);
+  }
+  // Counts, then the cells and values of every rank on rank 0 (rank order is curve order).
+  const int ranks = comm_.size();
+  int count = static_cast<int>(leaves.size());
+  std::vector<int> counts(static_cast<std::size_t>(ranks));
+  check(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_.handle()), "MPI_Gather");
+  std::vector<int> cell_counts, cell_offsets, value_counts, value_offsets;
+  std::int64_t total = 0;
+  if (comm_.is_root()) {
+    for (int q = 0; q < ranks; ++q) {
+      const int n = counts[static_cast<std::size_t>(q)];
+      cell_offsets.push_back(static_cast<int>(2 * total));
+      value_offsets.push_back(static_cast<int>(total * fields));
+      cell_counts.push_back(2 * n);
+      value_counts.push_back(n * fields);
+      total += n;
+    }
+  }
+  std::vector<std::uint64_t> all_cells(comm_.is_root() ? static_cast<std::size_t>(2 * total) : 0);
+  std::vector<double> all_values(comm_.is_root() ? static_cast<std::size_t>(total * fields) : 0);
+  check(MPI_Gatherv(cells.data(), static_cast<int>(cells.size()), MPI_UINT64_T, all_cells.data(), cell_counts.data(),
+                    cell_offsets.data(), MPI_UINT64_T, 0, comm_.handle()),
+        "MPI_Gatherv");
+  check(MPI_Gatherv(values.data(), static_cast<int>(values.size()), MPI_DOUBLE, all_values.data(),
+                    value_counts.data(), value_offsets.data(), MPI_DOUBLE, 0, comm_.handle()),
+        "MPI_Gatherv");
+  if (!comm_.is_root()) return std::nullopt;
+  std::vector<CurveCell> all(static_cast<std::size_t>(total));
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {all_cells[2 * i], static_cast<int>(all_cells[2 * i + 1])};
+  // Each rank's leaves come level by level, not in curve order.
+  std::vector<CurveCell> sorted = all;
+  std::sort(sorted.begin(), sorted.end(), curve_less);
+  Tree<D> whole = tree_refined_to<D>(options_, sorted);
+  for (int f = 0; f < fields; ++f) (void)whole.add_field(local.field_spec(f));
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const Index c = local_index(whole, all[i]);
+    for (int f = 0; f < fields; ++f)
+      whole.values(f)[static_cast<std::size_t>(c)] = all_values[i * static_cast<std::size_t>(fields) + static_cast<std::size_t>(f)];
+  }
+  return whole;
+}
+
+template <int D>
+std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tree<D>& t) {
+  const int top = t.max_level();
+  std::vector<CurveCell> leaves;
+  leaves.reserve(static_cast<std::size_t>(t.num_leaves()));
+  for (int l = 0; l <= t.depth(); ++l) {
+    const Level<D>& lv = t.level(l);
+    for (Index i = 0; i < lv.n_active; ++i)
+      if (lv.leaf[static_cast<std::size_t>(i)])
+        leaves.push_back({curve_position<D>(l, lv.keys[static_cast<std::size_t>(i)], top), l});
+  }
+  std::sort(leaves.begin(), leaves.end(), curve_less);
+  // Every rank holds the forest: rank 0 passes every leaf, the others none (by_weight is
+  // collective and takes each rank's own leaves in rank order).
+  std::vector<Key> positions;
+  std::vector<std::int64_t> weights;
+  if (comm.is_root())
+    for (const CurveCell& c : leaves) {
+      positions.push_back(c.position);
+      weights.push_back(1);
+    }
+  const Partition partition = Partition::by_weight(comm, positions, weights);
+  const Key begin = partition.split(comm.rank()), end = partition.split(comm.rank() + 1);
+  std::vector<CurveCell> owned;
+  for (const CurveCell& c : leaves)
+    if (c.position >= begin && c.position < end) owned.push_back(c);
+  auto forest = std::make_unique<DistributedForest<D>>(comm, partition, t.options(), owned);
+  Tree<D> local = forest->make_tree();
+  for (int f = 0; f < t.num_fields(); ++f) (void)local.add_field(t.field_spec(f));
+  // Every active cell of the local tree is a cell of the forest (placeholders included).
+  for (int l = 0; l <= local.depth(); ++l) {
+    const Level<D>& lv = local.level(l);
+    for (Index i = 0; i < lv.n_active; ++i) {
+      const Index g = t.find(l, morton_decode<D>(lv.keys[static_cast<std::size_t>(i)]));
+      if (g == kNone) continue;
+      for (int f = 0; f < t.num_fields(); ++f)
+        local.values(f)[static_cast<std::size_t>(lv.base + i)] = t.values(f)[static_cast<std::size_t>(g)];
+    }
+  }
+  t = std::move(local);
+  forest->attach(t);
+  return forest;
+}
+
+template class DistributedForest<2>;
+template class DistributedForest<3>;
+template std::unique_ptr<DistributedForest<2>> distribute<2>(const parallel::Comm&, Tree<2>&);
+template std::unique_ptr<DistributedForest<3>> distribute<3>(const parallel::Comm&, Tree<3>&);
+
+}  // namespace capsflow::tree

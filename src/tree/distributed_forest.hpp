@@ -1,0 +1,116 @@
+#pragma once
+// A rank's part of a forest partitioned along the Morton curve (docs/parallel.md): the
+// local tree it computes on, and the plan that fills its ghost cells from their owners.
+//
+// Ownership. Rank r owns the cells whose curve position lies in [split[r], split[r+1])
+// (partition.hpp): its leaves, and every ancestor whose first descendant is one of them.
+// The owner of any cell follows from its key and the split keys alone.
+//
+// Ghost cells, level by level. Every solver on the tree reads, from a cell of level l, cells
+// of level l within 2 of it (fluid faces, BCG slopes, multigrid relaxation), the parent's
+// 3^D block (restriction, prolongation, halo filling, wavelets) and, at a resolution jump,
+// the children of a neighbour. So this rank asks, at each level l, for the cells within
+// `width` (2) cells of
+//   (a) the level-l cells it owns,
+//   (b) the parents of the level-(l+1) cells it owns,
+//   (c) and for the children of the cells within one cell of its leaves of level l-1,
+// that exist in the global forest and that another rank owns. Each owner answers which of
+// the asked cells exist (a leaf, a parent or none) and keeps, per asking rank, the list of
+// those it will send ("mirrors"); the two lists are in the same curve order, so an exchange
+// sends values only, no keys.
+//
+// The local tree (tree_refined_to) is the coarsest balanced tree holding the owned leaves,
+// the ghost cells and the first child of every ghost parent: a leaf of the global forest
+// comes out a leaf, a parent a parent, and elsewhere placeholder cells nobody reads. The
+// solvers run on the whole local tree unchanged ("compute everywhere, then exchange"):
+// owned cells read only owned or ghost cells, which hold their owners' values after each
+// exchange, so an owned cell computes what one rank computes; reductions take the owned
+// leaves only.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "parallel/comm.hpp"
+#include "tree/curve_stencil.hpp"
+#include "tree/partition.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::tree {
+
+// Cells of a level within this many cells of every cell a rank owns are ghosts (above).
+inline constexpr int kGhostWidth = 2;
+
+template <int D>
+class DistributedForest final : public Distribution {
+ public:
+  // Collective over comm. owned_leaves: the leaves of one balanced forest that `partition`
+  // gives this rank, in curve order.
+  DistributedForest(const parallel::Comm& comm, const Partition& partition, const TreeOptions<D>& options,
+                    std::span<const CurveCell> owned_leaves, int width = kGhostWidth);
+
+  // A new local tree for this plan (register the fields, fill them, then attach()).
+  [[nodiscard]] Tree<D> make_tree() const;
+  // Binds the plan to t, a tree made by make_tree(): local indices of every ghost and
+  // mirror, the owned mask; t's distribution is then this. Collective.
+  void attach(Tree<D>& t);
+
+  // Distribution
+  void exchange(int level, std::span<double> v) const override;
+  double sum(const parallel::ExactSum& local) const override;
+  double max(double local) const override;
+  std::int64_t sum(std::int64_t local) const override;
+  std::int64_t max(std::int64_t local) const override;
+
+  // The whole forest on rank 0: its leaves and every field's values on them (the other
+  // slots zero; sync before reading them). Empty on the other ranks. Collective.
+  [[nodiscard]] std::optional<Tree<D>> gather_on_root(const Tree<D>& local) const;
+
+  [[nodiscard]] const parallel::Comm& comm() const { return comm_; }
+  [[nodiscard]] const Partition& partition() const { return partition_; }
+  [[nodiscard]] std::span<const CurveCell> owned_leaves() const { return owned_; }
+
+  // Traffic, for the benchmarks and the weak-scaling model.
+  struct Traffic {
+    std::int64_t ghost_cells = 0;      // received by one exchange of every level
+    std::int64_t mirror_cells = 0;     // sent by one exchange of every level
+    std::int64_t messages = 0;         // sent by one exchange of every level
+    std::vector<std::int64_t> ghosts_per_level, messages_per_level;
+  };
+  [[nodiscard]] Traffic traffic() const;
+  // Seconds spent in MPI_Waitall and values sent, since construction.
+  [[nodiscard]] double seconds_waiting() const { return waiting_; }
+  [[nodiscard]] std::int64_t values_sent() const { return values_sent_; }
+
+ private:
+  struct PeerCells {
+    int rank = 0;
+    std::vector<CurveCell> send, receive;  // curve order
+  };
+  struct Peer {
+    int rank = 0;
+    std::vector<Index> send, receive;  // local indices
+  };
+  parallel::Comm comm_;
+  Partition partition_;
+  TreeOptions<D> options_;
+  std::vector<CurveCell> owned_;
+  std::vector<CurveCell> required_;      // the local tree's defining cells, curve order
+  std::vector<PeerCells> peer_cells_;    // ranks ascending
+  std::vector<std::vector<Peer>> level_peers_;  // per level, ranks ascending
+  mutable std::vector<std::vector<double>> send_buffers_, receive_buffers_;
+  mutable double waiting_ = 0.0;
+  mutable std::int64_t values_sent_ = 0;
+};
+
+// Replaces t, the same whole forest (cells, fields, values) on every rank, by this rank's
+// local tree for a partition by leaf count, every field carried; returns the plan that t
+// now points to (keep it alive as long as t). Collective.
+template <int D>
+[[nodiscard]] std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tree<D>& t);
+
+extern template class DistributedForest<2>;
+extern template class DistributedForest<3>;
+
+}  // namespace capsflow::tree

@@ -1,0 +1,297 @@
+// The distributed tree, multigrid and flow solver on 1-4 ranks against the serial run that
+// every rank repeats on its own copy of the forest: the union of the partitions is the
+// serial forest, every ghost holds its owner's value after an exchange, and the multigrid
+// residual histories and the flow's values match the serial ones to 1e-12 relative.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <vector>
+
+#include "../tree/tree_invariants.hpp"
+#include "fluid/multigrid/elliptic_operator.hpp"
+#include "fluid/multigrid/multigrid.hpp"
+#include "fluid/navier_stokes.hpp"
+#include "forest_fixtures.hpp"
+#include "parallel/reduce.hpp"
+#include "tree/distributed_forest.hpp"
+
+namespace capsflow::tree {
+namespace {
+
+const double kPi = std::acos(-1.0);
+
+template <int D>
+double smooth(const Point<D>& x) {
+  double s = 0.0;
+  for (int d = 0; d < D; ++d) s += std::sin(2.1 * x[d] + 0.3 * d);
+  return s;
+}
+
+// The serial leaf (by level and coordinates) of every owned leaf, and whether the ranks'
+// owned leaves add up to the serial forest.
+template <int D>
+void expect_partition_of(const Tree<D>& serial, const Tree<D>& local) {
+  for (const Index c : local.owned_leaves()) {
+    const Index s = serial.find(local.level_of(c), local.coords(c));
+    ASSERT_NE(s, kNone);
+    EXPECT_TRUE(s < serial.level(local.level_of(c)).active_end() && serial.level(local.level_of(c)).is_leaf(s));
+  }
+  EXPECT_EQ(local.global_leaves(), serial.num_leaves());
+}
+
+template <int D>
+void check_ghosts(const TreeOptions<D>& o) {
+  const parallel::Comm comm = parallel::Comm::world();
+  const Tree<D> serial = testing::uneven_tree(o);
+  Tree<D> t = testing::uneven_tree(o);
+  const auto forest = distribute(comm, t);
+  testing::check_invariants(t);
+  expect_partition_of(serial, t);
+  // Owned active cells hold a value of their place and level, the others NaN; after one
+  // exchange every cell a stencil of an owned cell reads must hold that value.
+  auto value = [&](Index c) { return smooth<D>(t.center(c)) + t.level_of(c); };
+  std::vector<double> v(static_cast<std::size_t>(t.num_cells()), std::numeric_limits<double>::quiet_NaN());
+  for (int l = 0; l <= t.depth(); ++l)
+    for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c)
+      if (t.owns(c)) v[static_cast<std::size_t>(c)] = value(c);
+  t.exchange_all(v);
+  std::int64_t received = 0, wrong = 0, missing = 0;
+  for (int l = 0; l <= t.depth(); ++l) {
+    const Level<D>& lv = t.level(l);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
+      if (!t.owns(c) && !std::isnan(v[static_cast<std::size_t>(c)])) {
+        ++received;
+        if (v[static_cast<std::size_t>(c)] != value(c)) ++wrong;
+      }
+      if (!t.owns(c)) continue;
+      // Same-level neighbours (active ones) of an owned cell, and its parent's block.
+      for (int s = 0; s < kStencil<D>; ++s) {
+        const Index n = lv.neighbor(c, s);
+        if (n < lv.active_end() && std::isnan(v[static_cast<std::size_t>(n)])) ++missing;
+      }
+      if (l > 0) {
+        const Level<D>& up = t.level(l - 1);
+        const Index parent = t.find(l - 1, [&] {
+          auto x = t.coords(c);
+          for (auto& xi : x) xi >>= 1;
+          return x;
+        }());
+        for (int s = 0; s < kStencil<D>; ++s) {
+          const Index n = up.neighbor(parent, s);
+          if (n < up.active_end() && std::isnan(v[static_cast<std::size_t>(n)])) ++missing;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(missing, 0) << "rank " << comm.rank();
+  EXPECT_EQ(received, forest->traffic().ghost_cells);  // each ghost once, at its level
+  if (comm.size() > 1) {
+    EXPECT_GT(forest->traffic().ghost_cells, 0);
+  }
+  // Gathered on rank 0, the owned values are the serial forest's leaves again.
+  const FieldId f = t.add_field({.name = "v"});
+  for (const Index c : t.owned_leaves()) t.values(f)[static_cast<std::size_t>(c)] = value(c);
+  const auto whole = forest->gather_on_root(t);
+  if (comm.is_root()) {
+    ASSERT_TRUE(whole.has_value());
+    ASSERT_EQ(whole->num_leaves(), serial.num_leaves());
+    for (const Index c : whole->leaves())
+      EXPECT_EQ(whole->values(f)[static_cast<std::size_t>(c)], smooth<D>(whole->center(c)) + whole->level_of(c));
+  }
+}
+
+TEST(DistributedForest, GhostsHoldOwnersValues2D) { check_ghosts<2>({.roots = {2, 1}, .max_level = 6}); }
+TEST(DistributedForest, GhostsHoldOwnersValuesPeriodic2D) {
+  check_ghosts<2>({.roots = {1, 1}, .periodic = {true, true}, .max_level = 6});
+}
+TEST(DistributedForest, GhostsHoldOwnersValues3D) { check_ghosts<3>({.roots = {1, 1, 2}, .max_level = 5}); }
+
+// --- multigrid
+
+template <int D>
+struct Problem {
+  BoundaryConditions<D> bc;
+  std::function<double(const Point<D>&)> rhs;
+};
+
+template <int D>
+fluid::MultigridStats solve_on(Tree<D>& t, const Problem<D>& p, std::vector<double>& a, bool krylov) {
+  a.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
+  std::vector<double> b(static_cast<std::size_t>(t.num_cells()), 0.0);
+  for (const Index c : t.leaves()) b[static_cast<std::size_t>(c)] = p.rhs(t.center(c));
+  fluid::EllipticOperator<D> op(t, fluid::ConstantFaces{1.0}, fluid::ZeroCells{}, p.bc);
+  fluid::MultigridWorkspace ws;
+  return fluid::solve(op, a, b, ws, {.tolerance = 1e-10, .max_cycles = 40, .krylov = krylov});
+}
+
+template <int D>
+void check_multigrid(const TreeOptions<D>& o, const Problem<D>& p, bool krylov) {
+  const parallel::Comm comm = parallel::Comm::world();
+  Tree<D> serial = testing::uneven_tree(o);
+  std::vector<double> a_serial, a;
+  const auto s = solve_on(serial, p, a_serial, krylov);
+  Tree<D> t = testing::uneven_tree(o);
+  const auto forest = distribute(comm, t);
+  const auto d = solve_on(t, p, a, krylov);
+  for (std::size_t i = 0; i < std::min(d.residuals.size(), s.residuals.size()) && comm.is_root() && std::getenv("CAPSFLOW_DEBUG"); ++i)
+    std::printf("%zu %.17g %.17g\n", i, s.residuals[i], d.residuals[i]);
+  ASSERT_EQ(d.residuals.size(), s.residuals.size()) << "cycles";
+  for (std::size_t i = 0; i < s.residuals.size(); ++i)
+    EXPECT_NEAR(d.residuals[i], s.residuals[i], 1e-12 * s.residuals[i]) << "cycle " << i;
+  EXPECT_TRUE(d.converged);
+  double scale = 0.0, worst = 0.0;
+  for (const Index c : serial.leaves()) scale = std::max(scale, std::abs(a_serial[static_cast<std::size_t>(c)]));
+  for (const Index c : t.owned_leaves()) {
+    const Index sc = serial.find(t.level_of(c), t.coords(c));
+    worst = std::max(worst, std::abs(a[static_cast<std::size_t>(c)] - a_serial[static_cast<std::size_t>(sc)]));
+  }
+  EXPECT_LE(parallel::global_max(comm, worst), 1e-12 * scale);
+}
+
+template <int D>
+Problem<D> dirichlet() {
+  Problem<D> p;
+  p.bc = BoundaryConditions<D>::all(BcKind::dirichlet);
+  for (auto& side : p.bc.side) side.function = [](const Point<D>& x) { return x[0] - 0.5 * x[D - 1]; };
+  p.rhs = [](const Point<D>& x) { return -std::sin(kPi * x[0]) * std::cos(2 * kPi * x[1]) * (1 + x[D - 1]); };
+  return p;
+}
+
+template <int D>
+Problem<D> neumann() {  // singular: the mean is removed
+  Problem<D> p;
+  p.bc = BoundaryConditions<D>::all(BcKind::neumann);
+  p.rhs = [](const Point<D>& x) { return std::cos(kPi * x[0]) * std::cos(kPi * x[1]); };
+  return p;
+}
+
+TEST(DistributedMultigrid, DirichletMatchesSerial2D) {
+  check_multigrid<2>({.roots = {2, 1}, .max_level = 7}, dirichlet<2>(), false);
+}
+TEST(DistributedMultigrid, NeumannMatchesSerial2D) {
+  check_multigrid<2>({.roots = {1, 1}, .max_level = 7}, neumann<2>(), false);
+}
+TEST(DistributedMultigrid, KrylovMatchesSerial2D) {
+  check_multigrid<2>({.roots = {1, 1}, .max_level = 7}, dirichlet<2>(), true);
+}
+TEST(DistributedMultigrid, DirichletMatchesSerial3D) {
+  check_multigrid<3>({.roots = {1, 1, 1}, .max_level = 5}, dirichlet<3>(), false);
+}
+TEST(DistributedMultigrid, NeumannMatchesSerial3D) {
+  check_multigrid<3>({.roots = {1, 1, 2}, .max_level = 5}, neumann<3>(), false);
+}
+
+
+// --- flow
+
+namespace flow {
+
+using fluid::FlowOptions;
+using fluid::NavierStokes;
+using fluid::SideKind;
+
+// A row of what a run reports per step.
+struct Row {
+  double t, dt, max_u, divergence;
+  int cycles;
+};
+
+template <int D>
+void expect_same_rows(const std::vector<Row>& serial, const std::vector<Row>& distributed) {
+  ASSERT_EQ(serial.size(), distributed.size());
+  for (std::size_t i = 0; i < serial.size(); ++i) {
+    EXPECT_EQ(distributed[i].cycles, serial[i].cycles) << "step " << i;
+    EXPECT_NEAR(distributed[i].t, serial[i].t, 1e-12 * serial[i].t) << "step " << i;
+    EXPECT_NEAR(distributed[i].dt, serial[i].dt, 1e-12 * serial[i].dt) << "step " << i;
+    EXPECT_NEAR(distributed[i].max_u, serial[i].max_u, 1e-12 * serial[i].max_u) << "step " << i;
+    EXPECT_NEAR(distributed[i].divergence, serial[i].divergence, 1e-12 * serial[i].max_u / 1e-3 + 1e-300)
+        << "step " << i;
+  }
+}
+
+// Runs `steps` steps on t (distributed or not) and returns the rows; `adapt_every` > 0 adapts
+// (velocity wavelets) before every such step.
+template <int D>
+std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector<std::vector<double>>* final_u = nullptr) {
+  NavierStokes<D> ns(t, o);
+  std::vector<Row> rows;
+  for (int s = 0; s < steps; ++s) {
+    const fluid::StepStats st = ns.step();
+    rows.push_back({st.t, st.dt, ns.max_velocity_component(), ns.max_divergence(), st.cycles()});
+  }
+  if (final_u)
+    for (int d = 0; d < D; ++d) final_u->emplace_back(ns.u(d).begin(), ns.u(d).end());
+  return rows;
+}
+
+template <int D>
+void check_flow(const TreeOptions<D>& to, const std::function<int(const Box<D>&)>& levels, const FlowOptions<D>& o,
+                int steps) {
+  const parallel::Comm comm = parallel::Comm::world();
+  Tree<D> serial(to);
+  serial.refine_to(levels);
+  std::vector<std::vector<double>> u_serial, u;
+  const auto rows_serial = run(serial, o, steps, &u_serial);
+  Tree<D> fresh(to);
+  fresh.refine_to(levels);
+  const auto forest = distribute(comm, fresh);
+  const auto rows = run(fresh, o, steps, &u);
+  expect_same_rows<D>(rows_serial, rows);
+  double worst = 0.0, scale = 0.0;
+  for (const Index c : fresh.owned_leaves()) {
+    const Index sc = serial.find(fresh.level_of(c), fresh.coords(c));
+    for (int d = 0; d < D; ++d) {
+      worst = std::max(worst, std::abs(u[d][static_cast<std::size_t>(c)] - u_serial[d][static_cast<std::size_t>(sc)]));
+      scale = std::max(scale, std::abs(u_serial[d][static_cast<std::size_t>(sc)]));
+    }
+  }
+  EXPECT_LE(parallel::global_max(comm, worst), 1e-12 * parallel::global_max(comm, scale));
+  if (comm.is_root())
+    std::printf("%d ranks: %zu steps, max|u| %.6g, %.0f values sent, %.3f s waiting\n", comm.size(), rows.size(),
+                rows.back().max_u, double(forest->values_sent()), forest->seconds_waiting());
+}
+
+template <int D>
+std::array<fluid::SideFlow<D>, 2 * D> lid() {
+  std::array<fluid::SideFlow<D>, 2 * D> s{};
+  s[2 * (D - 1) + 1] = {.kind = SideKind::moving_wall, .velocity = {1.0}};
+  return s;
+}
+
+TEST(DistributedFlow, CavityNavierStokesMatchesSerial2D) {
+  check_flow<2>({.roots = {1, 1}, .max_level = 5}, [](const Box<2>&) { return 5; },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<2>()}, 20);
+}
+
+TEST(DistributedFlow, CavityGradedNavierStokesMatchesSerial2D) {
+  // Finer towards the lid: resolution jumps cross the partition boundaries.
+  check_flow<2>({.roots = {1, 1}, .max_level = 6}, [](const Box<2>& b) { return b.hi[1] > 0.8 ? 6 : (b.hi[1] > 0.5 ? 5 : 4); },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<2>()}, 15);
+}
+
+TEST(DistributedFlow, CavityStokesMatchesSerial3D) {
+  check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>&) { return 4; },
+                {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<3>()}, 5);
+}
+
+TEST(DistributedFlow, CavityNavierStokesMatchesSerial3D) {
+  check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>& b) { return b.hi[2] > 0.7 ? 4 : 3; },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<3>()}, 5);
+}
+
+TEST(DistributedFlow, SquareDuctMatchesSerial3D) {
+  std::array<fluid::SideFlow<3>, 6> sides{};
+  sides[0] = {.kind = SideKind::inflow, .profile = fluid::InflowProfile::square_duct, .mean_velocity = 1.0};
+  sides[1] = {.kind = SideKind::outflow};
+  check_flow<3>({.roots = {4, 1, 1}, .root_size = 2.0, .origin = {-4.0, -1.0, -1.0}, .max_level = 3},
+                [](const Box<3>& b) { return std::abs(b.lo[1]) > 0.7 || std::abs(b.hi[2]) > 0.7 ? 3 : 2; },
+                {.Re = 10, .dt = 0.05, .cfl = 0.5, .boundaries = sides}, 5);
+}
+
+}  // namespace flow
+
+}  // namespace
+}  // namespace capsflow::tree
