@@ -217,6 +217,9 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
   });
   stats.count_solve(s.converged);
   restrict_faces<D>(tree_, uf);
+  // Distributed: a ghost's coarse face is the mean of fine faces this rank may not have;
+  // the owners' projected faces instead (the advection reads the ghosts' faces).
+  for (int d = 0; d < D; ++d) tree_.exchange_all(uf[d]);
   return s.cycles;
 }
 

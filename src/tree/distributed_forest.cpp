@@ -53,22 +53,10 @@ DistributedForest<D>::DistributedForest(const parallel::Comm& comm, const Partit
   // 1. The centres of this rank's stencils per level, (a) and (b), and the children (c).
   std::vector<std::vector<Key>> centres(static_cast<std::size_t>(top) + 1);
   std::vector<CurveCell> asked;  // remote cells this rank reads, before deduplication
-  // The last ancestor pushed per level: leaves come in curve order, so their chains of
-  // ancestors share a prefix, and a walk up stops where it meets the previous chain.
-  std::vector<Key> last_ancestor(static_cast<std::size_t>(top) + 1, ~Key{0});
   for (const CurveCell& leaf : owned_) {
     const int m = leaf.level;
     const Key key = key_of<D>(leaf, top);
     centres[static_cast<std::size_t>(m)].push_back(key);
-    // Every ancestor is a centre: a prolongation into level l reads the parent's
-    // neighbours, which may be halo cells of level l-1 prolonged from the grandparent's
-    // neighbourhood, and so on up (each step stays within 2 cells of the ancestor).
-    for (int l = m - 1; l >= 0; --l) {
-      const Key anc = key >> (D * (m - l));
-      if (last_ancestor[static_cast<std::size_t>(l)] == anc) break;
-      last_ancestor[static_cast<std::size_t>(l)] = anc;
-      centres[static_cast<std::size_t>(l)].push_back(anc);
-    }
     if (m < top) {
       auto children_of = [&](const CurveCell& x) {
         const Key k = key_of<D>(x, top) << D;
@@ -81,10 +69,25 @@ DistributedForest<D>::DistributedForest(const parallel::Comm& comm, const Partit
       for_each_stencil_cell<D>(o, m, morton_decode<D>(key), 1, children_of);
     }
   }
-  for (int l = 0; l <= top; ++l) {
+  // From the finest level up, the parent of every cell within one cell of a centre is a
+  // centre: a prolongation into level l reads the parent's neighbours, and the faces of a
+  // ghost next to an owned cell read that ghost's halo, filled from its coarse neighbour's
+  // block; those halo cells may in turn be filled from the level above, and so on (each
+  // step stays within 2 cells of the ancestors' centres).
+  for (int l = top; l >= 0; --l) {
     auto& keys = centres[static_cast<std::size_t>(l)];
     std::sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    if (l == 0) break;
+    auto& parents = centres[static_cast<std::size_t>(l) - 1];
+    for (const Key k : keys) {
+      parents.push_back(k >> D);
+      for_each_stencil_cell<D>(o, l, morton_decode<D>(k), 1,
+                               [&](const CurveCell& c) { parents.push_back(key_of<D>(c, top) >> D); });
+    }
+  }
+  for (int l = 0; l <= top; ++l) {
+    auto& keys = centres[static_cast<std::size_t>(l)];
     for (const Key k : keys)
       for_each_stencil_cell<D>(o, l, morton_decode<D>(k), width, [&](const CurveCell& c) {
         if (!mine(c.position)) asked.push_back(c);

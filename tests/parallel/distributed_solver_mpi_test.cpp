@@ -136,8 +136,6 @@ void check_multigrid(const TreeOptions<D>& o, const Problem<D>& p, bool krylov) 
   Tree<D> t = testing::uneven_tree(o);
   const auto forest = distribute(comm, t);
   const auto d = solve_on(t, p, a, krylov);
-  for (std::size_t i = 0; i < std::min(d.residuals.size(), s.residuals.size()) && comm.is_root() && std::getenv("CAPSFLOW_DEBUG"); ++i)
-    std::printf("%zu %.17g %.17g\n", i, s.residuals[i], d.residuals[i]);
   ASSERT_EQ(d.residuals.size(), s.residuals.size()) << "cycles";
   for (std::size_t i = 0; i < s.residuals.size(); ++i)
     EXPECT_NEAR(d.residuals[i], s.residuals[i], 1e-12 * s.residuals[i]) << "cycle " << i;
