@@ -2,12 +2,14 @@
 // input (one line on stderr naming the file or key), 3 a run that failed on the way, 130 or
 // 143 a run stopped by SIGINT or SIGTERM after writing a checkpoint (interrupt.hpp).
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 #include <cstdio>
 #include <exception>
 #include <new>
 #include <string>
 
+#include "app/exit_status.hpp"
 #include "app/interrupt.hpp"
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
@@ -30,16 +32,7 @@ int main(int argc, char** argv) {
   using capsflow::app::RunRequest;
   // MPI only when a launcher started us (parallel/comm.hpp); a plain run makes no MPI call.
   capsflow::parallel::MpiSession mpi(argc, argv);
-  if (const auto world = capsflow::parallel::Comm::world(); world.size() > 1) {
-    // Refused on every rank (exit 2, before any work), said once: N copies of a serial run
-    // would otherwise write over each other's output.
-    if (world.is_root())
-      std::fprintf(stderr,
-                   "capsflow: %d MPI ranks: this version runs on one rank; the distributed flow solver is in "
-                   "progress (docs/parallel.md). Run without mpirun, with OMP_NUM_THREADS for the cores\n",
-                   world.size());
-    return 2;
-  }
+  const auto world = capsflow::parallel::Comm::world();
   CLI::App cli{"capsflow: elastic capsules in confined flows (finite volumes on an adaptive octree, "
                "finite-element membranes, immersed boundaries)"};
   cli.set_version_flag("--version", CAPSFLOW_VERSION);
@@ -68,13 +61,10 @@ int main(int argc, char** argv) {
 
   try {
     cli.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return cli.exit(e);
-  } catch (const CLI::CallForAllHelp& e) {
-    return cli.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return cli.exit(e);
   } catch (const CLI::ParseError& e) {
+    // Every rank parses the same arguments; rank 0 speaks.
+    if (!world.is_root()) return e.get_exit_code() == 0 ? 0 : 2;
+    if (e.get_exit_code() == 0) return cli.exit(e);  // --help, --version
     std::fprintf(stderr, "capsflow: %s (see capsflow --help)\n", e.what());
     return 2;
   }
@@ -85,38 +75,25 @@ int main(int argc, char** argv) {
     try {
       request.max_memory = capsflow::app::parse_memory_size(max_memory);
     } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "capsflow: --max-memory %s: %s\n", max_memory.c_str(), e.what());
+      if (world.is_root()) std::fprintf(stderr, "capsflow: --max-memory %s: %s\n", max_memory.c_str(), e.what());
       return 2;
     }
   }
+  if (!world.is_root()) request.quiet = true;  // one progress line, rank 0's
 
   try {
     capsflow::app::run_case(request);
-  } catch (const capsflow::app::Interrupted& e) {
-    report(e.what());
-    return e.exit_status();
-  } catch (const capsflow::app::RunFailure& e) {
-    report(e.what());
-    return 3;
-  } catch (const capsflow::io::CaseError& e) {
-    report(e.what());
-    return 2;
-  } catch (const capsflow::io::CheckpointError& e) {
-    report(e.what());
-    return 2;
-  } catch (const capsflow::app::RequestError& e) {
-    report(e.what());
-    return 2;
-  } catch (const std::invalid_argument& e) {
-    report(request.case_file.string() + ": " + e.what());
-    return 2;
-  } catch (const std::bad_alloc&) {  // the estimate (memory_estimate.hpp) is a lower bound when adaptive
-    report("out of memory (std::bad_alloc): the run needs more memory than is left; lower adapt.max_level or "
-           "domain.roots, or free memory. Output so far is kept");
-    return 3;
-  } catch (const std::exception& e) {
-    report(e.what());
-    return 3;
+  } catch (...) {
+    const auto failure = capsflow::app::exit_status_of(std::current_exception(), request.case_file.string());
+    if (world.is_root()) {
+      if (!failure.message.empty()) report(failure.message);
+    } else if (!failure.collective) {
+      // Only this rank failed (out of memory, a lost file): the others would wait for it
+      // forever. Say it, then stop the whole run with the status.
+      report(fmt::format("rank {}: {}", world.rank(), failure.message));
+      MPI_Abort(world.handle(), failure.status);
+    }
+    return failure.status;
   }
   return 0;
 }

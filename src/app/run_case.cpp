@@ -17,6 +17,7 @@
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
 #include "app/progress.hpp"
+#include "app/rank_zero.hpp"
 #include "fluid/adaptation.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "io/atomic_write.hpp"
@@ -25,6 +26,8 @@
 #include "io/diagnostics_csv.hpp"
 #include "io/pvd_series.hpp"
 #include "io/vtu_tree.hpp"
+#include "parallel/comm.hpp"
+#include "tree/distributed_forest.hpp"
 
 namespace capsflow::app {
 
@@ -76,7 +79,8 @@ template <int D>
 class FlowRun {
  public:
   FlowRun(const io::CaseConfig& c, const RunRequest& req, fs::path out)
-      : case_(c), request_(req), out_(std::move(out)), tree_(io::tree_options<D>(c)), ns_(tree_, flow_options<D>(c)),
+      : case_(c), request_(req), out_(std::move(out)), comm_(parallel::Comm::world()), tree_(io::tree_options<D>(c)),
+        ns_(tree_, flow_options<D>(c)),
         adaptation_(ns_, adaptation_options(c.adapt)), progress_(req.quiet) {
     if constexpr (D == 3)
       if (!c.capsules.empty()) {
@@ -101,19 +105,26 @@ class FlowRun {
     } else {
       (void)adaptation_.refine_initial();
     }
-    fs::create_directories(out_);
-    io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
-    auto columns = io::standard_diagnostics_columns();
-    columns.emplace_back("mg_unconverged");  // solves that missed their tolerance since the last row
-    // A restart into a new folder, or over another run (--force), starts its own diagnostics and series.
-    const bool in_place = continues_in_place(out_, request_.restart);
-    io::DiagnosticsCsv diagnostics = in_place && fs::exists(out_ / "diagnostics.csv")
-                                         ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
-                                         : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
-    io::PvdSeries series = in_place && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
-                                                                        : io::PvdSeries(out_ / "series.pvd");
-    if (request_.restart) series.truncate_after(ns_.time());
-    else if (c.output.vtu) snapshot(series, step);
+    // On N ranks every rank has built (or read) the same forest; each keeps its part.
+    if (comm_.size() > 1) forest_ = tree::distribute(comm_, tree_);
+    // Diagnostics and the series are rank 0's.
+    std::optional<io::DiagnosticsCsv> diagnostics;
+    std::optional<io::PvdSeries> series;
+    on_root(comm_, [&] {
+      fs::create_directories(out_);
+      io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
+      auto columns = io::standard_diagnostics_columns();
+      columns.emplace_back("mg_unconverged");  // solves that missed their tolerance since the last row
+      // A restart into a new folder, or over another run (--force), starts its own diagnostics and series.
+      const bool in_place = continues_in_place(out_, request_.restart);
+      diagnostics = in_place && fs::exists(out_ / "diagnostics.csv")
+                        ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
+                        : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
+      series = in_place && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
+                                                            : io::PvdSeries(out_ / "series.pvd");
+      if (request_.restart) series->truncate_after(ns_.time());
+    });
+    if (!request_.restart && c.output.vtu) snapshot(series, step);
 
     const auto start = std::chrono::steady_clock::now();
     const long first_step = step;  // a restart times only its own steps
@@ -144,17 +155,21 @@ class FlowRun {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics() : CapsuleDiagnostics{nan, nan, nan, nan};
-        diagnostics.row({double(step), ns_.time(), st.dt, double(tree_.num_leaves()), double(tree_.depth()), m.d12,
-                         m.d12_bbox, m.area_rel, m.volume_rel, vmax, double(st.cycles()), wall,
-                         double(unconverged_since_row_)});
+        const double leaves = double(tree_.global_leaves()), depth = double(tree_.global_depth());
+        on_root(comm_, [&] {
+          diagnostics->row({double(step), ns_.time(), st.dt, leaves, depth, m.d12, m.d12_bbox, m.area_rel,
+                            m.volume_rel, vmax, double(st.cycles()), wall, double(unconverged_since_row_)});
+        });
         unconverged_since_row_ = 0;
       }
       if (c.output.vtu && (step % c.output.interval == 0 || last)) snapshot(series, step);
       if (c.output.checkpoint &&
           ((c.output.checkpoint_interval > 0 && step % c.output.checkpoint_interval == 0) || last))
         (void)checkpoint(step, st.dt);
-      progress_.update({step, ns_.time(), t_end, st.dt, tree_.num_leaves(), tree_.depth(), st.cycles()}, last);
-      if (interrupt_signal() != 0) stop_interrupted(step, st.dt);
+      progress_.update({step, ns_.time(), t_end, st.dt, static_cast<tree::Index>(tree_.global_leaves()),
+                        tree_.global_depth(), st.cycles()},
+                       last);
+      if (signal_on_any_rank() != 0) stop_interrupted(step, st.dt);
     }
     progress_.finish();
     if (c.output.cells_csv) write_cells_csv();
@@ -194,19 +209,39 @@ class FlowRun {
 
   double max_speed() {
     double worst = 0.0;
-    for (const auto c : tree_.leaves()) {
+    for (const auto c : tree_.owned_leaves()) {
       double s = 0.0;
       for (int d = 0; d < D; ++d) s += ns_.u(d)[c] * ns_.u(d)[c];
       worst = std::max(worst, s);  // NaN propagates through the comparison below
-      if (std::isnan(s)) return s;
+      if (std::isnan(s)) break;
     }
-    return std::sqrt(worst);
+    return std::sqrt(tree_.global_max(worst));  // NaN from any rank
+  }
+
+  // SIGINT or SIGTERM on any rank (the launcher forwards them, not always to every rank at
+  // the same step): all ranks stop after the same step.
+  int signal_on_any_rank() const {
+    const auto local = static_cast<std::int64_t>(interrupt_signal());
+    return static_cast<int>(comm_.size() > 1 ? tree_.global_max(local) : local);
+  }
+
+  // Calls write(tree) with the whole forest on rank 0: this tree, or on N ranks the one
+  // gathered from every rank's leaves (field ids are the same).
+  void with_whole_tree(const std::function<void(const tree::Tree<D>&)>& write) {
+    if (!forest_) {
+      write(tree_);
+      return;
+    }
+    std::optional<tree::Tree<D>> whole = forest_->gather_on_root(tree_);
+    on_root(comm_, [&] { write(*whole); });
   }
 
   fs::path checkpoint(long step, double dt) {
     const fs::path file = out_ / numbered("checkpoint", step, "h5");
-    io::write_checkpoint<D>(file, tree_, {ns_.time(), step, dt},
-                            capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+    with_whole_tree([&](const tree::Tree<D>& t) {
+      io::write_checkpoint<D>(file, t, {ns_.time(), step, dt},
+                              capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+    });
     return file;
   }
 
@@ -217,32 +252,38 @@ class FlowRun {
     throw Interrupted(interrupt_signal(), step, ns_.time(), checkpoint(step, dt));
   }
 
-  void snapshot(io::PvdSeries& series, long step) {
-    std::vector<std::span<const double>> u;
-    for (int d = 0; d < D; ++d) u.push_back(ns_.u(d));
-    const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {ns_.p()}}};
+  void snapshot(std::optional<io::PvdSeries>& series, long step) {
     const std::string file = numbered("fluid", step, "vtu");
-    io::write_tree_vtu<D>(out_ / file, tree_, fields);
-    series.add(ns_.time(), file);  // relative to series.pvd, next to it
-    if (capsules_) capsules_->snapshot(out_, step, ns_.time(), series);
+    with_whole_tree([&](const tree::Tree<D>& t) {
+      std::vector<std::span<const double>> u;
+      for (int d = 0; d < D; ++d) u.push_back(t.values(ns_.velocity(d)));
+      const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {t.values(ns_.pressure())}}};
+      io::write_tree_vtu<D>(out_ / file, t, fields);
+      series->add(ns_.time(), file);  // relative to series.pvd, next to it
+      if (capsules_) capsules_->snapshot(out_, step, ns_.time(), *series);
+    });
   }
 
   void write_cells_csv() {
-    std::string text = D == 2 ? "x,y,level,u.x,u.y,p\n" : "x,y,z,level,u.x,u.y,u.z,p\n";
-    for (const auto c : tree_.leaves()) {
-      const auto x = tree_.center(c);
-      for (int d = 0; d < D; ++d) text += fmt::format("{},", x[d]);
-      text += fmt::format("{},", tree_.level_of(c));
-      for (int d = 0; d < D; ++d) text += fmt::format("{},", ns_.u(d)[c]);
-      text += fmt::format("{}\n", ns_.p()[c]);
-    }
-    io::atomic_write_text(out_ / "cells_final.csv", text);
+    with_whole_tree([&](const tree::Tree<D>& t) {
+      std::string text = D == 2 ? "x,y,level,u.x,u.y,p\n" : "x,y,z,level,u.x,u.y,u.z,p\n";
+      for (const auto c : t.leaves()) {
+        const auto x = t.center(c);
+        for (int d = 0; d < D; ++d) text += fmt::format("{},", x[d]);
+        text += fmt::format("{},", t.level_of(c));
+        for (int d = 0; d < D; ++d) text += fmt::format("{},", t.values(ns_.velocity(d))[c]);
+        text += fmt::format("{}\n", t.values(ns_.pressure())[c]);
+      }
+      io::atomic_write_text(out_ / "cells_final.csv", text);
+    });
   }
 
   const io::CaseConfig& case_;
   const RunRequest& request_;
   fs::path out_;
+  parallel::Comm comm_;
   tree::Tree<D> tree_;
+  std::unique_ptr<tree::DistributedForest<D>> forest_;  // N ranks: this rank's part of tree_
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
@@ -262,7 +303,17 @@ void run_case(const RunRequest& req) {
   if (req.restart && fs::is_directory(*req.restart))
     throw io::CheckpointError(fmt::format("{}: is a directory, not a checkpoint file", req.restart->string()));
   check_memory(c, req.max_memory, req.case_file.string());
-  const bool created = prepare_output_dir(out, req.force, req.restart);
+  const parallel::Comm comm = parallel::Comm::world();
+  if (comm.size() > 1 && !c.capsules.empty())
+    throw io::CaseError(fmt::format("{}: {} capsule(s) on {} MPI ranks: capsules run on one rank until they are "
+                                    "distributed (docs/parallel.md); run without mpirun, with OMP_NUM_THREADS for the cores",
+                                    req.case_file.string(), c.capsules.size(), comm.size()));
+  if (comm.size() > 1 && c.adapt.enabled)
+    throw io::CaseError(fmt::format("{}: adaptive refinement on {} MPI ranks is not distributed yet; set adapt.enabled = "
+                                    "false or --adapt off",
+                                    req.case_file.string(), comm.size()));
+  bool created = false;
+  on_root(comm, [&] { created = prepare_output_dir(out, req.force, req.restart); });
   install_interrupt_handlers();
   // Construction validates the flow options and boundary sides (std::invalid_argument); the
   // checkpoint is read (io::CheckpointError) before anything is written.

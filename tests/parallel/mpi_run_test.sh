@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# capsflow on N MPI ranks against one rank, through the binary as a user runs it:
+#  1. the 2D cavity (uniform 64^2, t = 0.3) on 2 and 3 ranks writes the same diagnostics
+#     (every column but the wall time), the same cells_final.csv and the same snapshots' count
+#     as the run without mpirun;
+#  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
+#  3. a case with capsules on 2 ranks is refused: exit 2, one capsflow line, no output folder.
+# Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
+set -u
+mpiexec=$1 capsflow=$2 cases=$3
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+cavity=(run "$cases/cavity_2d.toml" --adapt off --set adapt.max_level=6 --set time.t_end=0.3
+        --set output.interval=10 --set output.checkpoint_interval=20 --quiet)
+no_wall() { cut -d, -f1-11,13- "$1"; }
+
+"$capsflow" "${cavity[@]}" --out "$dir/serial" || fail "serial run exit $?"
+for n in 2 3; do
+  "$mpiexec" -n $n --oversubscribe "$capsflow" "${cavity[@]}" --out "$dir/np$n" 2> "$dir/err$n" ||
+    fail "$n ranks: exit $? $(cat "$dir/err$n")"
+  diff <(no_wall "$dir/serial/diagnostics.csv") <(no_wall "$dir/np$n/diagnostics.csv") > /dev/null ||
+    fail "$n ranks: diagnostics differ from one rank"
+  cmp -s "$dir/serial/cells_final.csv" "$dir/np$n/cells_final.csv" || fail "$n ranks: cells_final.csv differs"
+  [ "$(ls "$dir/serial" | grep -c vtu)" -eq "$(ls "$dir/np$n" | grep -c vtu)" ] || fail "$n ranks: snapshot count"
+  [ -s "$dir/err$n" ] && fail "$n ranks wrote to stderr: $(cat "$dir/err$n")"
+done
+echo "2 and 3 ranks: diagnostics and final cells identical to one rank"
+
+checkpoint=$(ls "$dir/np2"/checkpoint_*.h5 | head -1)
+"$mpiexec" -n 3 --oversubscribe "$capsflow" "${cavity[@]}" --restart "$checkpoint" --out "$dir/restart" 2> "$dir/err" ||
+  fail "restart on 3 ranks: exit $? $(cat "$dir/err")"
+cmp -s "$dir/serial/cells_final.csv" "$dir/restart/cells_final.csv" || fail "restart on 3 ranks ends elsewhere"
+echo "checkpoint of 2 ranks restarted on 3: same final cells"
+
+"$mpiexec" -n 2 --oversubscribe "$capsflow" run "$cases/relaxation_quick.toml" --quiet --out "$dir/caps" 2> "$dir/err"
+status=$?
+lines=$(grep -c '^capsflow:' "$dir/err")
+if [ "$status" -ne 2 ] || [ "$lines" -ne 1 ] || [ -e "$dir/caps" ]; then
+  fail "capsules on 2 ranks: expected exit 2, one capsflow line, no folder; got $status, $lines lines: $(cat "$dir/err")"
+fi
+echo "capsules on 2 ranks refused: $(grep '^capsflow:' "$dir/err")"
