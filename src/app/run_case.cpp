@@ -212,8 +212,11 @@ class FlowRun {
     for (const auto c : tree_.owned_leaves()) {
       double s = 0.0;
       for (int d = 0; d < D; ++d) s += ns_.u(d)[c] * ns_.u(d)[c];
-      worst = std::max(worst, s);  // NaN propagates through the comparison below
-      if (std::isnan(s)) break;
+      if (std::isnan(s)) {  // std::max would drop it
+        worst = s;
+        break;
+      }
+      worst = std::max(worst, s);
     }
     return std::sqrt(tree_.global_max(worst));  // NaN from any rank
   }
@@ -308,10 +311,6 @@ void run_case(const RunRequest& req) {
     throw io::CaseError(fmt::format("{}: {} capsule(s) on {} MPI ranks: capsules run on one rank until they are "
                                     "distributed (docs/parallel.md); run without mpirun, with OMP_NUM_THREADS for the cores",
                                     req.case_file.string(), c.capsules.size(), comm.size()));
-  if (comm.size() > 1 && c.adapt.enabled)
-    throw io::CaseError(fmt::format("{}: adaptive refinement on {} MPI ranks is not distributed yet; set adapt.enabled = "
-                                    "false or --adapt off",
-                                    req.case_file.string(), comm.size()));
   bool created = false;
   on_root(comm, [&] { created = prepare_output_dir(out, req.force, req.restart); });
   install_interrupt_handlers();

@@ -8,6 +8,7 @@
 
 #include "parallel/all_to_all.hpp"
 #include "parallel/reduce.hpp"
+#include "tree/leaf_migration.hpp"
 #include "tree/local_forest.hpp"
 
 namespace capsflow::tree {
@@ -40,33 +41,59 @@ Index local_index(const Tree<D>& t, const CurveCell& c) {
 template <int D>
 DistributedForest<D>::DistributedForest(const parallel::Comm& comm, const Partition& partition,
                                         const TreeOptions<D>& o, std::span<const CurveCell> owned_leaves, int width)
-    : comm_(comm), partition_(partition), options_(o), owned_(owned_leaves.begin(), owned_leaves.end()) {
-  if (partition.ranks() != comm.size())
+    : comm_(comm), partition_(partition), options_(o), width_(width) {
+  plan(partition, owned_leaves);
+}
+
+template <int D>
+void DistributedForest<D>::plan(const Partition& partition, std::span<const CurveCell> owned_leaves) {
+  if (partition.ranks() != comm_.size())
     throw std::invalid_argument(
-        fmt::format("distributed forest: a partition of {} ranks on {}", partition.ranks(), comm.size()));
+        fmt::format("distributed forest: a partition of {} ranks on {}", partition.ranks(), comm_.size()));
+  partition_ = partition;
+  owned_.assign(owned_leaves.begin(), owned_leaves.end());
+  required_.clear();
+  peer_cells_.clear();
+  level_peers_.clear();
+  const parallel::Comm& comm = comm_;
+  const TreeOptions<D>& o = options_;
+  const int width = width_;
   const int me = comm.rank(), ranks = comm.size(), top = o.max_level;
   const Key begin = partition.split(me), end = partition.split(me + 1);
   auto mine = [&](Key position) { return position >= begin && position < end; };
   for (const CurveCell& c : owned_)
     if (!mine(c.position)) throw std::invalid_argument("distributed forest: a leaf outside this rank's range");
 
-  // 1. The centres of this rank's stencils per level, (a) and (b), and the children (c).
+  // 1. The centres of this rank's stencils per level, (a) and (b), and the children (c)
+  //    of the cells next to every owned cell (leaves: fine faces at a jump; parents: the
+  //    owner decides a merge, which looks at its neighbours' children).
   std::vector<std::vector<Key>> centres(static_cast<std::size_t>(top) + 1);
   std::vector<CurveCell> asked;  // remote cells this rank reads, before deduplication
+  auto ask_children_around = [&](int m, Key key) {
+    if (m >= top) return;
+    auto children_of = [&](const CurveCell& x) {
+      const Key k = key_of<D>(x, top) << D;
+      for (Key b = 0; b < Key{kChildren<D>}; ++b) {
+        const CurveCell child{curve_position<D>(m + 1, k | b, top), m + 1};
+        if (!mine(child.position)) asked.push_back(child);
+      }
+    };
+    children_of({curve_position<D>(m, key, top), m});
+    for_each_stencil_cell<D>(o, m, morton_decode<D>(key), 1, children_of);
+  };
+  // Owned ancestors: leaves come in curve order, so chains of ancestors share a prefix and
+  // a walk up stops where it meets the previous one (or leaves this rank's range).
+  std::vector<Key> last_ancestor(static_cast<std::size_t>(top) + 1, ~Key{0});
   for (const CurveCell& leaf : owned_) {
     const int m = leaf.level;
     const Key key = key_of<D>(leaf, top);
     centres[static_cast<std::size_t>(m)].push_back(key);
-    if (m < top) {
-      auto children_of = [&](const CurveCell& x) {
-        const Key k = key_of<D>(x, top) << D;
-        for (Key b = 0; b < Key{kChildren<D>}; ++b) {
-          const CurveCell child{curve_position<D>(m + 1, k | b, top), m + 1};
-          if (!mine(child.position)) asked.push_back(child);
-        }
-      };
-      children_of(leaf);
-      for_each_stencil_cell<D>(o, m, morton_decode<D>(key), 1, children_of);
+    ask_children_around(m, key);
+    for (int l = m - 1; l >= 0; --l) {
+      const Key anc = key >> (D * (m - l));
+      if (last_ancestor[static_cast<std::size_t>(l)] == anc || !mine(curve_position<D>(l, anc, top))) break;
+      last_ancestor[static_cast<std::size_t>(l)] = anc;
+      ask_children_around(l, anc);
     }
   }
   // From the finest level up, the parent of every cell within one cell of a centre is a
@@ -178,7 +205,7 @@ void DistributedForest<D>::attach(Tree<D>& t) {
       owned[static_cast<std::size_t>(lv.base + i)] = position >= begin && position < end;
     }
   }
-  t.set_distribution(this, std::move(owned));
+  t.set_distribution(this, std::move(owned), this);
 }
 
 template <int D>
@@ -238,6 +265,123 @@ std::int64_t DistributedForest<D>::sum(std::int64_t local) const {
 template <int D>
 std::int64_t DistributedForest<D>::max(std::int64_t local) const {
   return parallel::global_max(comm_, local);
+}
+
+template <int D>
+AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
+  constexpr int C = kChildren<D>;
+  const int top = t.max_level();
+  const auto n = static_cast<std::size_t>(t.num_cells());
+  const std::span<const Index> owned_leaves = t.owned_leaves();
+  // This rank's wishes for its leaves (+1 split, -1 merge candidate, 0 keep).
+  std::vector<std::int8_t> wish(n, 0);
+  for (const Index c : owned_leaves) wish[static_cast<std::size_t>(c)] = t.flags_[static_cast<std::size_t>(c)];
+  std::vector<double> flags(n), merges(n);
+  auto parent_of = [&](Index c, int l) {
+    auto x = t.coords(c);
+    for (auto& xi : x) xi >>= 1;
+    return t.find(l - 1, x);
+  };
+  for (int round = 0;; ++round) {
+    if (round > 4 * (top + 1) * comm_.size())
+      throw std::logic_error("distributed adapt: the ranks did not agree on the refinement");
+    // The owners' wishes on the ghosts; placeholders keep.
+    std::fill(flags.begin(), flags.end(), 0.0);
+    for (const Index c : owned_leaves) flags[static_cast<std::size_t>(c)] = wish[static_cast<std::size_t>(c)];
+    t.exchange_all(flags);
+    for (const Index c : t.leaves()) t.flags_[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(flags[static_cast<std::size_t>(c)]);
+    (void)t.decide(min_level);
+    // A merge is the parent's owner's decision.
+    std::fill(merges.begin(), merges.end(), 0.0);
+    for (int l = 0; l < t.depth(); ++l) {
+      const Level<D>& lv = t.level(l);
+      for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
+        if (!lv.is_leaf(c) && t.owns(c) && !t.refined_next_[static_cast<std::size_t>(c)]) merges[static_cast<std::size_t>(c)] = 1.0;
+    }
+    t.exchange_all(merges);
+    std::int64_t changed = 0;
+    for (const Index c : owned_leaves) {
+      const int l = t.level_of(c);
+      std::int8_t decided = 0;
+      if (t.refined_next_[static_cast<std::size_t>(c)]) decided = 1;
+      else if (l > 0 && merges[static_cast<std::size_t>(parent_of(c, l))] != 0.0) decided = -1;
+      if (decided != wish[static_cast<std::size_t>(c)]) {
+        wish[static_cast<std::size_t>(c)] = decided;
+        changed = 1;
+      }
+    }
+    if (parallel::global_max(comm_, changed) == 0) break;
+  }
+
+  // The new leaves of this rank's range, in curve order, with every field's values.
+  const int fields = t.num_fields();
+  std::vector<std::pair<CurveCell, Index>> old_leaves;
+  for (const Index c : owned_leaves) {
+    const int l = t.level_of(c);
+    const Level<D>& lv = t.level(l);
+    old_leaves.push_back({{curve_position<D>(l, lv.keys[static_cast<std::size_t>(c - lv.base)], top), l}, c});
+  }
+  std::sort(old_leaves.begin(), old_leaves.end(),
+            [](const auto& a, const auto& b) { return curve_less(a.first, b.first); });
+  std::vector<CurveCell> cells;
+  std::vector<double> values;
+  AdaptCounts counts;
+  double children[C];
+  for (const auto& [cell, c] : old_leaves) {
+    const std::int8_t w = wish[static_cast<std::size_t>(c)];
+    const int l = cell.level;
+    if (w == 1) {
+      ++counts.refined;
+      const Key first = key_of<D>(cell, top) << D;
+      const std::size_t at = values.size();
+      values.resize(at + static_cast<std::size_t>(C * fields));
+      for (int f = 0; f < fields; ++f) {
+        t.child_values(c, f, children);
+        for (int k = 0; k < C; ++k) values[at + static_cast<std::size_t>(k * fields + f)] = children[k];
+      }
+      for (Key k = 0; k < Key{C}; ++k) cells.push_back({curve_position<D>(l + 1, first | k, top), l + 1});
+    } else if (w == -1) {
+      // The merged leaf is emitted once, by the first child, on the parent's owner.
+      const Index p = parent_of(c, l);
+      const Level<D>& up = t.level(l - 1);
+      const Index fc = up.first_child[static_cast<std::size_t>(p - up.base)];
+      if (fc != c) continue;
+      ++counts.coarsened;
+      cells.push_back({cell.position, l - 1});
+      for (int f = 0; f < fields; ++f) {
+        const std::span<const double> v = t.values(f);
+        double sum = 0.0;
+        for (int k = 0; k < C; ++k) sum += v[static_cast<std::size_t>(fc + k)];
+        values.push_back(t.field_spec(f).prolongation == Prolongation::none ? 0.0 : sum * (1.0 / C));
+      }
+    } else {
+      cells.push_back(cell);
+      for (int f = 0; f < fields; ++f) values.push_back(t.values(f)[static_cast<std::size_t>(c)]);
+    }
+  }
+
+  if (fields == 0) values.assign(cells.size(), 0.0);  // migrate_leaves carries one component at least
+  // Repartition by leaf count, move the leaves, plan again, and make the new local tree.
+  std::vector<Key> positions(cells.size());
+  const std::vector<std::int64_t> weights(cells.size(), 1);
+  for (std::size_t i = 0; i < cells.size(); ++i) positions[i] = cells[i].position;
+  const Partition next = Partition::by_weight(comm_, positions, weights);
+  const MigratedLeaves moved = migrate_leaves(comm_, next, cells, values, std::max(fields, 1));
+  std::vector<FieldSpec<D>> specs;
+  for (int f = 0; f < fields; ++f) specs.push_back(t.field_spec(f));
+  plan(next, moved.leaves);
+  t = make_tree();
+  for (const auto& spec : specs) (void)t.add_field(spec);
+  attach(t);
+  for (std::size_t i = 0; i < moved.leaves.size(); ++i) {
+    const Index c = local_index(t, moved.leaves[i]);
+    for (int f = 0; f < fields; ++f)
+      t.values(f)[static_cast<std::size_t>(c)] = moved.values[i * static_cast<std::size_t>(fields) + static_cast<std::size_t>(f)];
+  }
+  for (int f = 0; f < fields; ++f) t.exchange_all(t.values(f));
+  counts.leaves = static_cast<Index>(t.owned_leaves().size());
+  counts.cells = t.num_cells();
+  return counts;
 }
 
 template <int D>

@@ -43,7 +43,7 @@ namespace capsflow::tree {
 inline constexpr int kGhostWidth = 2;
 
 template <int D>
-class DistributedForest final : public Distribution {
+class DistributedForest final : public Distribution, public DistributedAdaptation<D> {
  public:
   // Collective over comm. owned_leaves: the leaves of one balanced forest that `partition`
   // gives this rank, in curve order.
@@ -62,6 +62,15 @@ class DistributedForest final : public Distribution {
   double max(double local) const override;
   std::int64_t sum(std::int64_t local) const override;
   std::int64_t max(std::int64_t local) const override;
+
+  // DistributedAdaptation (Tree::adapt on a distributed tree calls it with the flags of the
+  // leaves it owns): the ranks agree on the decision, iterating "exchange the flags, decide
+  // with the tree's own balance, keep what decided the owned leaves" until no rank's owned
+  // leaves change (flags only move from merge to keep to split, so it ends); a merge is its
+  // parent's owner's decision. The new leaves get their values as one rank's adapt would
+  // give them (prolongation, volume mean), are repartitioned by count (leaf_migration),
+  // and t becomes the local tree of the new plan, ghosts exchanged.
+  AdaptCounts adapt(Tree<D>& t, int min_level) override;
 
   // The whole forest on rank 0: its leaves and every field's values on them (the other
   // slots zero; sync before reading them). Empty on the other ranks. Collective.
@@ -92,6 +101,9 @@ class DistributedForest final : public Distribution {
     int rank = 0;
     std::vector<Index> send, receive;  // local indices
   };
+  // Builds the plan for these owned leaves (the constructor's work, again after an adapt).
+  void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
+  int width_ = kGhostWidth;
   parallel::Comm comm_;
   Partition partition_;
   TreeOptions<D> options_;

@@ -196,6 +196,22 @@ class Distribution {
 };
 
 template <int D>
+class Tree;
+
+// The adaptation of a distributed tree (distributed_forest.hpp): given the local tree with
+// its own refinement flags on the leaves it owns, agree with the other ranks on the global
+// decision, repartition, and replace the tree by the new local one. Collective.
+template <int D>
+class DistributedAdaptation {
+ public:
+  virtual ~DistributedAdaptation() = default;
+  virtual AdaptCounts adapt(Tree<D>& t, int min_level) = 0;
+};
+
+template <int D>
+class DistributedForest;
+
+template <int D>
 class Tree {
  public:
   explicit Tree(const TreeOptions<D>& options);
@@ -214,7 +230,8 @@ class Tree {
   // --- distribution (one rank: no distribution, every cell owned)
   // Makes this tree the local tree of a partitioned run: `owned` has one entry per cell
   // (nonzero: this rank owns it; only active cells are read). Collective (the global depth).
-  void set_distribution(const Distribution* d, std::vector<std::uint8_t> owned);
+  void set_distribution(const Distribution* d, std::vector<std::uint8_t> owned,
+                        DistributedAdaptation<D>* adaptation = nullptr);
   const Distribution* distribution() const { return dist_; }
   bool distributed() const { return dist_ != nullptr; }
   bool owns(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] != 0; }
@@ -342,8 +359,14 @@ class Tree {
   // Level::halo_read of every level, from the deepest up (a level's list depends on the
   // next one's).
   void collect_halo_read();
-  // Balances flags_ (per cell: +1 split, -1 merge candidate), decides, rebuilds.
+  // Balances flags_ (per cell: +1 split, -1 merge candidate), decides, rebuilds; on a
+  // distributed tree the distribution decides with the other ranks.
   AdaptCounts decide_and_rebuild(int min_level);
+  // The decision alone: flags_ balanced, refined_next_ per cell (counts of this tree).
+  AdaptCounts decide(int min_level);
+  // The values a leaf's children get when it is refined (as adapt() gives them): C values.
+  void child_values(Index leaf, FieldId f, double* out) const;
+  friend class DistributedForest<D>;
 
   TreeOptions<D> options_;
   std::vector<double> cell_size_;
@@ -354,6 +377,7 @@ class Tree {
   int depth_ = 0;
   int global_depth_ = 0;  // depth_ on one rank
   const Distribution* dist_ = nullptr;
+  DistributedAdaptation<D>* dist_adapt_ = nullptr;
   std::vector<std::uint8_t> owned_;  // per cell, distributed only
   std::vector<Index> owned_leaves_;
   Index num_cells_ = 0;

@@ -110,6 +110,16 @@ AdaptCounts Tree<D>::apply_flags(std::span<const std::int8_t> flags, int min_lev
 
 template <int D>
 AdaptCounts Tree<D>::decide_and_rebuild(int min_level) {
+  if (dist_adapt_) return dist_adapt_->adapt(*this, min_level);  // replaces this tree
+  AdaptCounts counts = decide(min_level);
+  if (counts.refined > 0 || counts.coarsened > 0) rebuild(refined_next_);
+  counts.leaves = num_leaves();
+  counts.cells = num_cells_;
+  return counts;
+}
+
+template <int D>
+AdaptCounts Tree<D>::decide(int min_level) {
   constexpr int C = kChildren<D>;
   AdaptCounts counts;
   // 1. Split flagged leaves; a split leaf drags its coarser neighbours along (balance).
@@ -173,9 +183,6 @@ AdaptCounts Tree<D>::decide_and_rebuild(int min_level) {
     counts.refined += refined;
     counts.coarsened += coarsened;
   }
-  if (counts.refined > 0 || counts.coarsened > 0) rebuild(refined_next_);
-  counts.leaves = num_leaves();
-  counts.cells = num_cells_;
   return counts;
 }
 
@@ -200,11 +207,13 @@ template void Tree<2>::wavelet_error(std::span<const WaveletTolerance>, std::vec
 template AdaptCounts Tree<2>::adapt(const AdaptOptions<2>&);
 template AdaptCounts Tree<2>::apply_flags(std::span<const std::int8_t>, int);
 template AdaptCounts Tree<2>::decide_and_rebuild(int);
+template AdaptCounts Tree<2>::decide(int);
 template AdaptCounts Tree<2>::refine_to(const std::function<int(const Box<2>&)>&, int);
 template void Tree<3>::wavelet_error(std::span<const WaveletTolerance>, std::vector<float>&) const;
 template AdaptCounts Tree<3>::adapt(const AdaptOptions<3>&);
 template AdaptCounts Tree<3>::apply_flags(std::span<const std::int8_t>, int);
 template AdaptCounts Tree<3>::decide_and_rebuild(int);
+template AdaptCounts Tree<3>::decide(int);
 template AdaptCounts Tree<3>::refine_to(const std::function<int(const Box<3>&)>&, int);
 
 }  // namespace capsflow::tree

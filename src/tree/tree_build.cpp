@@ -399,6 +399,7 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
   // distribution of the new one; the old plans do not fit it.
   global_depth_ = depth_;
   dist_ = nullptr;
+  dist_adapt_ = nullptr;
   owned_.clear();
   owned_leaves_.clear();
   num_cells_ = cells;
@@ -410,7 +411,9 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
 }
 
 template <int D>
-void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> owned) {
+void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> owned,
+                               DistributedAdaptation<D>* adaptation) {
+  dist_adapt_ = adaptation;
   if (d == nullptr) {
     dist_ = nullptr;
     owned_.clear();

@@ -1,6 +1,7 @@
 // Field values outside the leaves (restriction, halo, ghosts) and the transfer of fields
 // to a new tree. One mechanism serves every solver: see the rules in prolongation.hpp
 // (levels) and boundary.hpp (sides).
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -213,6 +214,17 @@ void Tree<D>::sync(FieldId f) {
 }
 
 template <int D>
+void Tree<D>::child_values(Index leaf, FieldId f, double* out) const {
+  const Prolongation p = fields_[f].prolongation;
+  if (p == Prolongation::none) {
+    std::fill(out, out + kChildren<D>, 0.0);
+    return;
+  }
+  const auto s = slopes_of<D>(levels_[level_of(leaf)], leaf, data_[f], p);
+  for (int k = 0; k < kChildren<D>; ++k) out[k] = s.child(k);
+}
+
+template <int D>
 void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells) {
   constexpr int C = kChildren<D>;
   for (std::size_t f = 0; f < fields_.size(); ++f) {
@@ -262,6 +274,7 @@ template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Pro
 template void Tree<2>::sync(FieldId);
 template void Tree<2>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
+template void Tree<2>::child_values(Index, FieldId, double*) const;
 template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
 template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
@@ -272,6 +285,7 @@ template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Pro
 template void Tree<3>::sync(FieldId);
 template void Tree<3>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
+template void Tree<3>::child_values(Index, FieldId, double*) const;
 template void Tree<3>::transfer_fields(const std::vector<Level<3>>&, int, Index);
 
 }  // namespace capsflow::tree

@@ -109,6 +109,54 @@ TEST(DistributedForest, GhostsHoldOwnersValuesPeriodic2D) {
 }
 TEST(DistributedForest, GhostsHoldOwnersValues3D) { check_ghosts<3>({.roots = {1, 1, 2}, .max_level = 5}); }
 
+// Random refine/coarsen sequences (flags from a hash of the cell and the round, so every
+// rank and the serial tree flag the same leaves): after each, the ranks' leaves gathered are
+// the serial forest's, cell for cell and value for value, and each local tree is balanced.
+template <int D>
+void check_random_adaptation(const TreeOptions<D>& o) {
+  const parallel::Comm comm = parallel::Comm::world();
+  Tree<D> serial = testing::uneven_tree(o);
+  Tree<D> t = testing::uneven_tree(o);
+  const FieldId fs = serial.add_field({.name = "v"});
+  const FieldId f = t.add_field({.name = "v"});
+  for (const Index c : serial.leaves()) serial.values(fs)[static_cast<std::size_t>(c)] = smooth<D>(serial.center(c));
+  for (const Index c : t.leaves()) t.values(f)[static_cast<std::size_t>(c)] = smooth<D>(t.center(c));
+  const auto forest = distribute(comm, t);
+  for (int round = 0; round < 6; ++round) {
+    auto flags_of = [round](const Tree<D>& tr) {
+      std::vector<std::int8_t> flags(static_cast<std::size_t>(tr.num_cells()), 0);
+      for (const Index c : tr.leaves()) {
+        const int l = tr.level_of(c);
+        const Key key = tr.level(l).keys[static_cast<std::size_t>(c - tr.level(l).base)];
+        const std::uint64_t h = (key * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(l * 131 + round * 7919)) >> 40;
+        flags[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(h % 7 == 0 ? 1 : (h % 7 < 4 ? -1 : 0));
+      }
+      return flags;
+    };
+    (void)serial.apply_flags(flags_of(serial));
+    (void)t.apply_flags(flags_of(t));
+    testing::check_invariants(t);
+    EXPECT_EQ(t.global_leaves(), serial.num_leaves()) << "round " << round;
+    const auto whole = forest->gather_on_root(t);
+    if (!comm.is_root()) continue;
+    ASSERT_EQ(whole->num_leaves(), serial.num_leaves()) << "round " << round;
+    std::int64_t differ = 0;
+    for (const Index c : serial.leaves()) {
+      const Index w = whole->find(serial.level_of(c), serial.coords(c));
+      if (w == kNone || !whole->level(serial.level_of(c)).is_leaf(w) ||
+          whole->values(f)[static_cast<std::size_t>(w)] != serial.values(fs)[static_cast<std::size_t>(c)])
+        ++differ;
+    }
+    EXPECT_EQ(differ, 0) << "round " << round;
+  }
+}
+
+TEST(DistributedForest, RandomAdaptationsMatchSerial2D) { check_random_adaptation<2>({.roots = {2, 1}, .max_level = 7}); }
+TEST(DistributedForest, RandomAdaptationsMatchSerialPeriodic2D) {
+  check_random_adaptation<2>({.roots = {1, 1}, .periodic = {true, false}, .max_level = 7});
+}
+TEST(DistributedForest, RandomAdaptationsMatchSerial3D) { check_random_adaptation<3>({.roots = {1, 2, 1}, .max_level = 5}); }
+
 // --- multigrid
 
 template <int D>
@@ -213,10 +261,15 @@ void expect_same_rows(const std::vector<Row>& serial, const std::vector<Row>& di
 // Runs `steps` steps on t (distributed or not) and returns the rows; `adapt_every` > 0 adapts
 // (velocity wavelets) before every such step.
 template <int D>
-std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector<std::vector<double>>* final_u = nullptr) {
+std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector<std::vector<double>>* final_u = nullptr,
+                     int adapt_every = 0, int min_level = 0) {
   NavierStokes<D> ns(t, o);
   std::vector<Row> rows;
   for (int s = 0; s < steps; ++s) {
+    if (adapt_every > 0 && s % adapt_every == 0) {
+      (void)ns.adapt(0.01, {.min_level = min_level});
+      rows.push_back({double(t.global_leaves()), 0.0, ns.max_velocity_component(), 0.0, -1});
+    }
     const fluid::StepStats st = ns.step();
     rows.push_back({st.t, st.dt, ns.max_velocity_component(), ns.max_divergence(), st.cycles()});
   }
@@ -227,16 +280,16 @@ std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector
 
 template <int D>
 void check_flow(const TreeOptions<D>& to, const std::function<int(const Box<D>&)>& levels, const FlowOptions<D>& o,
-                int steps) {
+                int steps, int adapt_every = 0, int min_level = 0) {
   const parallel::Comm comm = parallel::Comm::world();
   Tree<D> serial(to);
   serial.refine_to(levels);
   std::vector<std::vector<double>> u_serial, u;
-  const auto rows_serial = run(serial, o, steps, &u_serial);
+  const auto rows_serial = run(serial, o, steps, &u_serial, adapt_every, min_level);
   Tree<D> fresh(to);
   fresh.refine_to(levels);
   const auto forest = distribute(comm, fresh);
-  const auto rows = run(fresh, o, steps, &u);
+  const auto rows = run(fresh, o, steps, &u, adapt_every, min_level);
   expect_same_rows<D>(rows_serial, rows);
   double worst = 0.0, scale = 0.0;
   for (const Index c : fresh.owned_leaves()) {
@@ -278,6 +331,17 @@ TEST(DistributedFlow, CavityStokesMatchesSerial3D) {
 TEST(DistributedFlow, CavityNavierStokesMatchesSerial3D) {
   check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>& b) { return b.hi[2] > 0.7 ? 4 : 3; },
                 {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<3>()}, 5);
+}
+
+TEST(DistributedFlow, AdaptiveCavityMatchesSerial2D) {
+  // Adapted (velocity wavelets, refinement and coarsening, repartition) every 4 steps.
+  check_flow<2>({.roots = {1, 1}, .max_level = 7}, [](const Box<2>& b) { return b.hi[1] > 0.9 ? 6 : 4; },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<2>()}, 24, 4, 3);
+}
+
+TEST(DistributedFlow, AdaptiveCavityMatchesSerial3D) {
+  check_flow<3>({.roots = {1, 1, 1}, .max_level = 5}, [](const Box<3>& b) { return b.hi[2] > 0.8 ? 4 : 3; },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<3>()}, 8, 3, 2);
 }
 
 TEST(DistributedFlow, SquareDuctMatchesSerial3D) {

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # capsflow on N MPI ranks against one rank, through the binary as a user runs it:
-#  1. the 2D cavity (uniform 64^2, t = 0.3) on 2 and 3 ranks writes the same diagnostics
-#     (every column but the wall time), the same cells_final.csv and the same snapshots' count
-#     as the run without mpirun;
+#  1. the 2D cavity (uniform 64^2, t = 0.3) on 2 and 3 ranks, and adaptive (levels 5-7,
+#     repartitioned after every adaptation) on 3 ranks, writes the same diagnostics (every
+#     column but the wall time), the same cells_final.csv and the same snapshots' count as
+#     the run without mpirun;
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
 #  3. a case with capsules on 2 ranks is refused: exit 2, one capsflow line, no output folder.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
@@ -26,6 +27,15 @@ for n in 2 3; do
   [ -s "$dir/err$n" ] && fail "$n ranks wrote to stderr: $(cat "$dir/err$n")"
 done
 echo "2 and 3 ranks: diagnostics and final cells identical to one rank"
+
+adaptive=(run "$cases/cavity_2d.toml" --set time.t_end=0.3 --set output.interval=10 --quiet)
+"$capsflow" "${adaptive[@]}" --out "$dir/adaptive1" || fail "adaptive serial run exit $?"
+"$mpiexec" -n 3 --oversubscribe "$capsflow" "${adaptive[@]}" --out "$dir/adaptive3" 2> "$dir/err" ||
+  fail "adaptive on 3 ranks: exit $? $(cat "$dir/err")"
+diff <(no_wall "$dir/adaptive1/diagnostics.csv") <(no_wall "$dir/adaptive3/diagnostics.csv") > /dev/null ||
+  fail "adaptive on 3 ranks: diagnostics differ from one rank"
+cmp -s "$dir/adaptive1/cells_final.csv" "$dir/adaptive3/cells_final.csv" || fail "adaptive on 3 ranks: cells differ"
+echo "adaptive on 3 ranks: diagnostics and final cells identical to one rank"
 
 checkpoint=$(ls "$dir/np2"/checkpoint_*.h5 | head -1)
 "$mpiexec" -n 3 --oversubscribe "$capsflow" "${cavity[@]}" --restart "$checkpoint" --out "$dir/restart" 2> "$dir/err" ||
