@@ -213,6 +213,8 @@ void DistributedForest<D>::exchange(int level, std::span<double> v) const {
   if (level < 0 || level >= static_cast<int>(level_peers_.size())) return;
   const auto& peers = level_peers_[static_cast<std::size_t>(level)];
   if (peers.empty()) return;
+  if (exchanges_.size() < level_peers_.size()) exchanges_.resize(level_peers_.size(), 0);
+  ++exchanges_[static_cast<std::size_t>(level)];
   send_buffers_.resize(peers.size());
   receive_buffers_.resize(peers.size());
   std::vector<MPI_Request> requests;
@@ -398,6 +400,8 @@ typename DistributedForest<D>::Traffic DistributedForest<D>::traffic() const {
     out.messages += messages;
     out.ghosts_per_level.push_back(ghosts);
     out.messages_per_level.push_back(messages);
+    const std::size_t l = out.ghosts_per_level.size() - 1;
+    out.exchanges_per_level.push_back(l < exchanges_.size() ? exchanges_[l] : 0);
   }
   return out;
 }

@@ -86,6 +86,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
     std::int64_t mirror_cells = 0;     // sent by one exchange of every level
     std::int64_t messages = 0;         // sent by one exchange of every level
     std::vector<std::int64_t> ghosts_per_level, messages_per_level;
+    std::vector<std::int64_t> exchanges_per_level;  // exchange() calls so far (with peers)
   };
   [[nodiscard]] Traffic traffic() const;
   // Seconds spent in MPI_Waitall and values sent, since construction.
@@ -113,6 +114,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   std::vector<std::vector<Peer>> level_peers_;  // per level, ranks ascending
   mutable std::vector<std::vector<double>> send_buffers_, receive_buffers_;
   mutable double waiting_ = 0.0;
+  mutable std::vector<std::int64_t> exchanges_;  // per level
   mutable std::int64_t values_sent_ = 0;
 };
 

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Strong scaling on this machine's cores: the same flow step as 1 rank x 1 thread, 1 rank x
+# 2 threads (OpenMP) and 2 ranks x 1 thread (MPI), interleaved REPEATS times (shared
+# machines drift), then the ratios of the medians: MPI speed-up (2 ranks against 1) and
+# MPI against OpenMP on the same two cores.
+# Usage: bench/parallel/mpi_scaling.sh BUILD_DIR [CASE=uniform128|seed_shell] [PHYSICS=stokes|ns] [STEPS=5] [REPEATS=3]
+set -eu
+build=$1 case=${2:-uniform128} physics=${3:-stokes} steps=${4:-5} repeats=${5:-3}
+bench="$build/bench/parallel/capsflow_mpi_bench"
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+out=$(mktemp)
+for r in $(seq "$repeats"); do
+  OMP_NUM_THREADS=1 "$bench" "$case" "$physics" "$steps" | sed 's/^/config=1x1 /' >> "$out"
+  OMP_NUM_THREADS=2 "$bench" "$case" "$physics" "$steps" | sed 's/^/config=1x2 /' >> "$out"
+  OMP_NUM_THREADS=1 mpirun -np 2 --bind-to core "$bench" "$case" "$physics" "$steps" | sed 's/^/config=2x1 /' >> "$out"
+done
+cat "$out"
+python3 - "$out" <<'PY'
+import re, sys, statistics
+rows = [dict(kv.split('=', 1) for kv in line.split()) for line in open(sys.argv[1])]
+med = {c: statistics.median(float(r['s_per_step']) for r in rows if r['config'] == c) for c in ('1x1', '1x2', '2x1')}
+mpi = [r for r in rows if r['config'] == '2x1']
+print(f"median s/step: 1 rank x 1 thread {med['1x1']:.4f}, 1 rank x 2 threads {med['1x2']:.4f}, 2 ranks x 1 thread {med['2x1']:.4f}")
+print(f"speed-up 2 ranks / 1 rank: {med['1x1'] / med['2x1']:.2f} (target >= 1.5)")
+print(f"OpenMP 1x2 / 1x1: {med['1x1'] / med['1x2']:.2f}")
+print(f"MPI 2x1 time / OpenMP 1x2 time: {med['2x1'] / med['1x2']:.2f} (target <= 1.10)")
+print(f"2 ranks: bytes sent per step by the busiest rank {statistics.median(float(r['bytes_per_step']) for r in mpi):.3g}, "
+      f"fraction of the step waiting {statistics.median(float(r['wait_fraction']) for r in mpi):.3f}")
+PY
+rm -f "$out"

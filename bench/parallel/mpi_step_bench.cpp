@@ -1,0 +1,85 @@
+// One flow step on N MPI ranks (run under mpirun; bench/parallel/mpi_scaling.sh runs the
+// configurations side by side and prints the ratios). Cases:
+//   uniform128   the 3D lid-driven cavity on a uniform 128^3 tree (2.1 M cells)
+//   seed_shell   the seed channel refined to dx = 1/32 in the capsule's shell, no capsule
+// each as unsteady Stokes ("stokes") or Navier-Stokes ("ns"). Prints one line of
+// key=value: seconds per step (the slowest rank, after one warm-up step), values sent per
+// step by the busiest rank, the fraction of the step that rank spent waiting on messages,
+// the ghost cells per level, and leaves.
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "../seed_channel.hpp"
+#include "fluid/navier_stokes.hpp"
+#include "parallel/comm.hpp"
+#include "parallel/reduce.hpp"
+#include "tree/distributed_forest.hpp"
+
+using namespace capsflow;
+
+int main(int argc, char** argv) {
+  parallel::MpiSession session(argc, argv);
+  const parallel::Comm comm = parallel::Comm::world();
+  if (argc < 4) {
+    if (comm.is_root()) std::fprintf(stderr, "usage: capsflow_mpi_bench uniform128|seed_shell stokes|ns STEPS\n");
+    return 2;
+  }
+  const std::string which = argv[1], physics = argv[2];
+  const int steps = std::atoi(argv[3]);
+  tree::TreeOptions<3> to;
+  std::function<int(const tree::Box<3>&)> levels;
+  fluid::FlowOptions<3> o{.Re = 10, .stokes = physics == "stokes", .dt = 1e-3};
+  if (which == "uniform128") {
+    to = {.roots = {1, 1, 1}, .max_level = 7};
+    levels = [](const tree::Box<3>&) { return 7; };
+    o.boundaries[5] = {.kind = fluid::SideKind::moving_wall, .velocity = {1.0}};
+  } else {
+    to = bench::seed_channel();
+    levels = bench::seed_shell(0.0);
+    o.boundaries[0] = {.kind = fluid::SideKind::inflow, .profile = fluid::InflowProfile::square_duct, .mean_velocity = 1.0};
+    o.boundaries[1] = {.kind = fluid::SideKind::outflow};
+  }
+  tree::Tree<3> t(to);
+  t.refine_to(levels);
+  std::unique_ptr<tree::DistributedForest<3>> forest;
+  if (comm.size() > 1) forest = tree::distribute(comm, t);
+  fluid::NavierStokes<3> ns(t, o);
+  (void)ns.step();  // warm-up: first solves from zero, allocation
+  const double wait0 = forest ? forest->seconds_waiting() : 0.0;
+  const auto sent0 = forest ? forest->values_sent() : 0;
+  if (comm.distributed()) MPI_Barrier(comm.handle());
+  const auto start = std::chrono::steady_clock::now();
+  int cycles = 0;
+  for (int s = 0; s < steps; ++s) cycles += ns.step().cycles();
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
+  const double waiting = forest ? (forest->seconds_waiting() - wait0) / steps : 0.0;
+  const double sent = forest ? double(forest->values_sent() - sent0) / steps : 0.0;
+  double wait_fraction = waiting / seconds;
+  seconds = parallel::global_max(comm, seconds);
+  wait_fraction = parallel::global_max(comm, wait_fraction);
+  const double busiest = parallel::global_max(comm, sent);
+  // Per level (the busiest rank's): ghost cells, neighbour ranks, exchanges per step.
+  std::string per_level, messages, exchanges;
+  if (forest) {
+    const auto traffic = forest->traffic();
+    for (std::size_t l = 0; l < traffic.ghosts_per_level.size(); ++l) {
+      const char* sep = l ? "/" : "";
+      per_level += sep + std::to_string(parallel::global_max(comm, traffic.ghosts_per_level[l]));
+      messages += sep + std::to_string(parallel::global_max(comm, traffic.messages_per_level[l]));
+      exchanges += sep + std::to_string(parallel::global_max(comm, traffic.exchanges_per_level[l]) / (steps + 1));
+    }
+  }
+  if (comm.is_root())
+    std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
+                "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f ghosts_per_level=%s "
+                "neighbours_per_level=%s exchanges_per_step_per_level=%s\n",
+                which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
+                static_cast<long long>(t.global_leaves()), seconds, double(cycles) / steps, busiest, 8 * busiest,
+                wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str());
+  return 0;
+}
