@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<tree::DistributedForest<3>> forest;
   if (comm.size() > 1) forest = tree::distribute(comm, t);
   fluid::NavierStokes<3> ns(t, o);
-  (void)ns.step();  // warm-up: first solves from zero, allocation
+  (void)ns.step();
   const double wait0 = forest ? forest->seconds_waiting() : 0.0;
   const auto sent0 = forest ? forest->values_sent() : 0;
   if (comm.distributed()) MPI_Barrier(comm.handle());
@@ -74,12 +74,13 @@ int main(int argc, char** argv) {
       exchanges += sep + std::to_string(parallel::global_max(comm, traffic.exchanges_per_level[l]) / (steps + 1));
     }
   }
+  const auto leaves = static_cast<long long>(t.global_leaves());  // collective: every rank
   if (comm.is_root())
     std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
                 "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f ghosts_per_level=%s "
                 "neighbours_per_level=%s exchanges_per_step_per_level=%s\n",
                 which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
-                static_cast<long long>(t.global_leaves()), seconds, double(cycles) / steps, busiest, 8 * busiest,
+                leaves, seconds, double(cycles) / steps, busiest, 8 * busiest,
                 wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str());
   return 0;
 }
