@@ -84,17 +84,35 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
   // Owned ancestors: leaves come in curve order, so chains of ancestors share a prefix and
   // a walk up stops where it meets the previous one (or leaves this rank's range).
   std::vector<Key> last_ancestor(static_cast<std::size_t>(top) + 1, ~Key{0});
+  std::vector<std::vector<CurveCell>> owned_cells(static_cast<std::size_t>(top) + 1);  // active, curve order per level
   for (const CurveCell& leaf : owned_) {
     const int m = leaf.level;
     const Key key = key_of<D>(leaf, top);
     centres[static_cast<std::size_t>(m)].push_back(key);
+    owned_cells[static_cast<std::size_t>(m)].push_back(leaf);
     ask_children_around(m, key);
     for (int l = m - 1; l >= 0; --l) {
       const Key anc = key >> (D * (m - l));
       if (last_ancestor[static_cast<std::size_t>(l)] == anc || !mine(curve_position<D>(l, anc, top))) break;
       last_ancestor[static_cast<std::size_t>(l)] = anc;
+      owned_cells[static_cast<std::size_t>(l)].push_back({curve_position<D>(l, anc, top), l});
       ask_children_around(l, anc);
     }
+  }
+  // Coarse levels with few cells per rank are replicated: every rank holds all their cells
+  // and relaxes them all, identically, so the multigrid's many sweeps there need no message
+  // (one exchange per level after the restriction brings every cell's residual). Without
+  // it the level-0 sweeps alone were 350 exchanges a step of the seed shell on 2 ranks.
+  replicated_levels_ = 0;
+  {
+    std::vector<std::int64_t> counts;
+    for (const auto& cells : owned_cells) counts.push_back(static_cast<std::int64_t>(cells.size()));
+    for (int l = 0; l <= top; ++l) {
+      const std::int64_t total = parallel::global_sum(comm, counts[static_cast<std::size_t>(l)]);
+      if (total == 0 || total > std::min<std::int64_t>(kReplicatedCellsPerRank * ranks, kReplicatedCellsMax)) break;
+      replicated_levels_ = l + 1;
+    }
+    if (ranks == 1) replicated_levels_ = 0;
   }
   // From the finest level up, the parent of every cell within one cell of a centre is a
   // centre: a prolongation into level l reads the parent's neighbours, and the faces of a
@@ -123,6 +141,7 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
   }
   std::sort(asked.begin(), asked.end(), curve_less);
   asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
+  std::erase_if(asked, [&](const CurveCell& c) { return c.level < replicated_levels_; });
 
   // 2. Ask each owner.
   std::vector<std::vector<CurveCell>> asked_of(static_cast<std::size_t>(ranks));
@@ -171,8 +190,47 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
     }
     if (!peer.send.empty() || !peer.receive.empty()) peer_cells_.push_back(std::move(peer));
   }
+  // 5. Replicated levels: every owned cell to every other rank (after the stencil cells
+  //    in each peer's lists, in the owner's curve order on both sides).
+  if (replicated_levels_ > 0) {
+    std::vector<std::uint64_t> words;
+    for (int l = 0; l < replicated_levels_; ++l)
+      for (const CurveCell& c : owned_cells[static_cast<std::size_t>(l)]) {
+        const auto it = std::lower_bound(owned_.begin(), owned_.end(), CurveCell{c.position, 0}, curve_less);
+        words.push_back(c.position);
+        words.push_back(static_cast<std::uint64_t>(c.level));
+        words.push_back(it->level == c.level ? kLeafCell : kParentCell);
+      }
+    std::vector<std::vector<std::uint64_t>> to_all(static_cast<std::size_t>(ranks));
+    for (int q = 0; q < ranks; ++q)
+      if (q != me) to_all[static_cast<std::size_t>(q)] = words;
+    const auto from_all = parallel::all_to_all(comm, to_all);
+    for (int q = 0; q < ranks; ++q) {
+      if (q == me) continue;
+      auto peer = std::find_if(peer_cells_.begin(), peer_cells_.end(), [q](const PeerCells& x) { return x.rank == q; });
+      if (peer == peer_cells_.end())
+        peer = peer_cells_.insert(std::upper_bound(peer_cells_.begin(), peer_cells_.end(), q,
+                                                   [](int r, const PeerCells& x) { return r < x.rank; }),
+                                  PeerCells{.rank = q, .send = {}, .receive = {}});
+      for (int l = 0; l < replicated_levels_; ++l)
+        peer->send.insert(peer->send.end(), owned_cells[static_cast<std::size_t>(l)].begin(),
+                          owned_cells[static_cast<std::size_t>(l)].end());
+      const auto& w = from_all[static_cast<std::size_t>(q)];
+      for (std::size_t i = 0; i + 2 < w.size(); i += 3) {
+        const CurveCell c{w[i], static_cast<int>(w[i + 1])};
+        peer->receive.push_back(c);
+        required_.push_back(c);
+        if (w[i + 2] == kParentCell) required_.push_back({c.position, c.level + 1});
+      }
+    }
+  }
   std::sort(required_.begin(), required_.end(), curve_less);
   required_.erase(std::unique(required_.begin(), required_.end()), required_.end());
+}
+
+template <int D>
+bool DistributedForest<D>::replicated(int level) const {
+  return level < replicated_levels_;
 }
 
 template <int D>

@@ -41,6 +41,10 @@ namespace capsflow::tree {
 
 // Cells of a level within this many cells of every cell a rank owns are ghosts (above).
 inline constexpr int kGhostWidth = 2;
+// Coarse levels of at most this many cells per rank (and this many in all) are held whole
+// by every rank (replicated()).
+inline constexpr std::int64_t kReplicatedCellsPerRank = 64;
+inline constexpr std::int64_t kReplicatedCellsMax = 32768;
 
 template <int D>
 class DistributedForest final : public Distribution, public DistributedAdaptation<D> {
@@ -62,6 +66,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   double max(double local) const override;
   std::int64_t sum(std::int64_t local) const override;
   std::int64_t max(std::int64_t local) const override;
+  bool replicated(int level) const override;
 
   // DistributedAdaptation (Tree::adapt on a distributed tree calls it with the flags of the
   // leaves it owns): the ranks agree on the decision, iterating "exchange the flags, decide
@@ -105,6 +110,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   // Builds the plan for these owned leaves (the constructor's work, again after an adapt).
   void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
   int width_ = kGhostWidth;
+  int replicated_levels_ = 0;  // levels [0, replicated_levels_) are replicated
   parallel::Comm comm_;
   Partition partition_;
   TreeOptions<D> options_;

@@ -193,6 +193,9 @@ class Distribution {
   virtual double max(double local) const = 0;  // NaN from any rank wins
   virtual std::int64_t sum(std::int64_t local) const = 0;
   virtual std::int64_t max(std::int64_t local) const = 0;
+  // Whether every rank holds every cell of level l (ghosts of all the others): a rank then
+  // computes on the whole level exactly as the others do, and a sweep needs no exchange.
+  virtual bool replicated(int level) const = 0;
 };
 
 template <int D>
@@ -239,6 +242,7 @@ class Tree {
   std::span<const Index> owned_leaves() const { return dist_ ? std::span<const Index>(owned_leaves_) : leaves_; }
   // The deepest level on any rank: the range of every loop that exchanges.
   int global_depth() const { return global_depth_; }
+  bool replicated_level(int l) const { return dist_ != nullptr && dist_->replicated(l); }
   void exchange_level(int l, std::span<double> v) const {
     if (dist_) dist_->exchange(l, v);
   }

@@ -130,11 +130,13 @@ class EllipticOperator {
         // No ghost refill between the colours: a face ghost's source is the cell it
         // touches, so black cells never read the ghost of a red one.
         // Distributed: each colour reads only the other one, so an exchange after each
-        // gives every rank the numbers of one rank.
+        // gives every rank the numbers of one rank (a replicated level: every rank relaxes
+        // every cell, with no exchange).
+        const bool exchange = !tree_.replicated_level(l);
         relax_colour<0>(lv, diag, da, res, {});
-        tree_.exchange_level(l, da);
+        if (exchange) tree_.exchange_level(l, da);
         relax_colour<1>(lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
-        tree_.exchange_level(l, da);
+        if (exchange) tree_.exchange_level(l, da);
       } else {
         const Index n = lv.n_active, base = lv.base;
         const double w = opt.jacobi_weight;
@@ -145,7 +147,7 @@ class EllipticOperator {
           da[base + i] = scratch[base + i];
           if (fuse && last && lv.leaf[i]) corrected[base + i] += da[base + i];
         }
-        tree_.exchange_level(l, da);
+        if (!tree_.replicated_level(l)) tree_.exchange_level(l, da);
       }
       tree_.fill_ghosts(l, da, correction_bc_);
     }
