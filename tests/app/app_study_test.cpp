@@ -1,0 +1,208 @@
+// capsflow study (issue 18), end to end on a tiny study: a 2D cavity on three levels (a
+// second in all), and the order and equal-error arithmetic on synthetic errors.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "app/study/orders.hpp"
+#include "app_support.hpp"
+#include "io/csv_table.hpp"
+#include "small_cavity.hpp"
+
+namespace capsflow::app {
+namespace {
+
+using namespace testing;
+using ::testing::HasSubstr;
+
+// The small cavity to t = 0.02 in steps of 0.002, no snapshots; members vary max_level.
+fs::path tiny_study(const fs::path& dir, const std::string& extra = "") {
+  write(dir, "cavity.toml", test_cases::small_cavity("[output]\nvtu = false\n"));
+  return write(dir, "tiny.toml", R"(base = "cavity.toml"
+set = ["time.dt=0.002"]
+x = "adapt.max_level"
+error = "vmax"
+[[ladder]]
+"adapt.max_level" = [3, 4, 5]
+)" + extra);
+}
+
+Result study(const fs::path& file, const fs::path& dir) {
+  return capsflow("study " + file.string() + " --quiet --no-plots --out " + (dir / "out").string(), dir);
+}
+
+std::size_t row_of(const io::CsvTable& t, const std::string& text, const std::string& member) {
+  // The member names are not numbers: find the row by the order of members in the text.
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  for (std::size_t i = 0; std::getline(in, line); ++i)
+    if (line.starts_with(member + ",")) return i;
+  ADD_FAILURE() << member << " not in study.csv";
+  return t.rows.size();
+}
+
+// study.csv with its text columns (member, status, series, reference, adapt) blanked so
+// that the numeric reader takes it.
+io::CsvTable numeric_study_csv(const fs::path& out, std::string& text) {
+  text = slurp(out / "study.csv");
+  std::string blanked;
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  blanked += line + "\n";
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells{""};
+    for (const char c : line) {
+      if (c == ',') cells.emplace_back();
+      else cells.back() += c;
+    }
+    for (const int k : {0, 1, 3, 4, 7}) cells[static_cast<std::size_t>(k)].assign(1, '0');
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      if (k > 0) blanked += ',';
+      blanked += cells[k].empty() ? std::string("nan") : cells[k];
+    }
+    blanked += '\n';
+  }
+  write(out, "study_numeric.csv", blanked);
+  return io::read_csv_table(out / "study_numeric.csv");
+}
+
+TEST(Study, OrdersFromSyntheticErrors) {
+  // e = 3 h^2 given in no particular order: every segment has order 2, coarse to fine.
+  const auto segs = study::observed_orders({{0.25, 3 * 0.0625}, {1.0, 3.0}, {0.5, 0.75}});
+  ASSERT_EQ(segs.size(), 2u);
+  EXPECT_EQ(segs[0].h_coarse, 1.0);
+  EXPECT_EQ(segs[1].h_fine, 0.25);
+  for (const auto& s : segs) EXPECT_NEAR(s.order, 2.0, 1e-12);
+  // Ratios that are not powers of two (dt = 1e-3, 5e-4, 2e-4, 1e-4), e = h^1.3 then h^0.7.
+  const double h[] = {1e-3, 5e-4, 2e-4};
+  const auto mixed = study::observed_orders({{h[0], std::pow(h[0], 1.3)}, {h[1], std::pow(h[1], 1.3)},
+                                              {h[2], std::pow(h[1], 1.3) * std::pow(h[2] / h[1], 0.7)}});
+  EXPECT_NEAR(mixed[0].order, 1.3, 1e-12);
+  EXPECT_NEAR(mixed[1].order, 0.7, 1e-12);
+  // A zero error (the reference itself) or a NaN gives no order.
+  EXPECT_TRUE(std::isnan(study::observed_orders({{1.0, 1.0}, {0.5, 0.0}})[0].order));
+  EXPECT_TRUE(std::isnan(study::observed_orders({{1.0, NAN}, {0.5, 1.0}})[0].order));
+  // Cost at equal error: exact on a power law, NaN outside the range.
+  const std::vector<std::pair<double, double>> cells{{1e-2, 1e3}, {1e-3, 1e5}, {1e-4, 1e7}};
+  EXPECT_NEAR(study::cost_at_error(cells, std::sqrt(1e-2 * 1e-3)), 1e4, 1e-8);
+  EXPECT_NEAR(study::cost_at_error(cells, 1e-3), 1e5, 1e-8);
+  EXPECT_TRUE(std::isnan(study::cost_at_error(cells, 1e-1)));
+  EXPECT_TRUE(std::isnan(study::cost_at_error({{1e-2, 1e3}}, 1e-2)));
+}
+
+// Every member in study.csv, the reference the finest, and the orders in orders.csv those
+// of the members' own vmax values.
+TEST(Study, TinyStudyReportsEveryMemberAndItsOrders) {
+  const fs::path dir = scratch("study_tiny");
+  const auto r = study(tiny_study(dir), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string text;
+  const io::CsvTable t = numeric_study_csv(dir / "out", text);
+  ASSERT_EQ(t.rows.size(), 3u) << text;
+  for (const char* m : {"max_level=3", "max_level=4", "max_level=5"}) {
+    EXPECT_THAT(text, HasSubstr(std::string(m) + ",ran,")) << text;
+    EXPECT_TRUE(fs::exists(dir / "out" / "members" / m / "diagnostics.csv")) << m;
+  }
+  std::vector<double> vmax;
+  for (const std::string level : {"3", "4", "5"}) {
+    const std::string m = "max_level=" + level;
+    const auto& row = t.rows[row_of(t, text, m)];
+    vmax.push_back(row[t.column("vmax")]);
+    EXPECT_EQ(row[t.column("steps")], 10);
+    EXPECT_NEAR(row[t.column("t_end")], 0.02, 1e-12);
+    EXPECT_GT(row[t.column("cells_mean")], 0);
+    // The reference (max_level=5) has no error against itself.
+    EXPECT_THAT(text, HasSubstr(m + ",ran," + level + ",,max_level=5,"));
+  }
+  EXPECT_EQ(t.rows[row_of(t, text, "max_level=5")][t.column("vmax_err")], 0.0);
+  // Orders of vmax (h = 2^-level), coarse to fine, from the values above.
+  const std::string orders = slurp(dir / "out" / "orders.csv");
+  std::istringstream in(orders);
+  std::string line;
+  std::vector<double> found;
+  while (std::getline(in, line))
+    if (line.starts_with(",vmax,")) found.push_back(std::stod(line.substr(line.rfind(',') + 1)));
+  ASSERT_EQ(found.size(), 2u) << orders;
+  EXPECT_NEAR(found[0], std::log2(vmax[0] / vmax[1]), 1e-9);
+  EXPECT_NEAR(found[1], std::log2(vmax[1] / vmax[2]), 1e-9);
+}
+
+// A member that did not finish (no study_done.txt: killed while it ran) runs again; the
+// finished ones are skipped, their files untouched; a changed study reruns what it changes.
+TEST(Study, InterruptedStudyResumesWithoutRerunningFinishedMembers) {
+  const fs::path dir = scratch("study_resume");
+  const fs::path file = tiny_study(dir);
+  ASSERT_EQ(study(file, dir).status, 0);
+  const fs::path members = dir / "out" / "members";
+  const auto stamp = [&](const char* m) { return fs::last_write_time(members / m / "diagnostics.csv"); };
+  const auto t3 = stamp("max_level=3"), t5 = stamp("max_level=5");
+  fs::remove(members / "max_level=4" / "study_done.txt");
+  write(members / "max_level=4", "diagnostics.csv", "step,t\n1,0.002\n");  // cut short
+  const auto again = study(file, dir);
+  ASSERT_EQ(again.status, 0) << again.err;
+  EXPECT_EQ(stamp("max_level=3"), t3);
+  EXPECT_EQ(stamp("max_level=5"), t5);
+  const std::string text = slurp(dir / "out" / "study.csv");
+  EXPECT_THAT(text, HasSubstr("max_level=3,skipped,"));
+  EXPECT_THAT(text, HasSubstr("max_level=4,ran,"));
+  EXPECT_THAT(text, HasSubstr("max_level=5,skipped,"));
+  EXPECT_TRUE(fs::exists(members / "max_level=4" / "study_done.txt"));
+  EXPECT_EQ(io::read_csv_table(members / "max_level=4" / "diagnostics.csv").rows.size(), 10u);
+
+  // Another dt is another case: every member runs again.
+  write(dir, "tiny.toml", slurp(file).replace(slurp(file).find("0.002"), 5, "0.004"));
+  ASSERT_EQ(study(file, dir).status, 0);
+  EXPECT_NE(stamp("max_level=3"), t3);
+  EXPECT_THAT(slurp(dir / "out" / "study.csv"), Not(HasSubstr("skipped")));
+}
+
+// [expect] lines that do not hold: exit status 1, each named.
+TEST(Study, FailedExpectationExitsOne) {
+  const fs::path dir = scratch("study_expect");
+  const auto r = study(tiny_study(dir, "[expect]\nmin_order = { vmax = 50.0 }\nmax_value = { vmax = 1e-9 }\n"), dir);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("study expectation failed: order of vmax in series \"\" from max_level = 3 to 4"));
+  EXPECT_THAT(r.err, HasSubstr("study expectation failed: vmax of member max_level=3 = "));
+}
+
+// A bad study file: one line naming the file and the key, exit status 2, nothing run.
+TEST(Study, BadStudyFileIsOneLineAndExitTwo) {
+  const fs::path dir = scratch("study_bad");
+  tiny_study(dir);
+  const std::pair<std::string, std::string> cases[] = {
+      {"base = \"cavity.toml\"\nrefrence = \"finest\"\n[[ladder]]\n\"time.dt\" = [0.01]\n",
+       "bad.toml: refrence: unknown key (did you mean reference?)"},
+      {"[[ladder]]\n\"time.dt\" = [0.01]\n", "bad.toml: base: missing"},
+      {"base = \"cavity.toml\"\n", "bad.toml: ladder: missing"},
+      {"base = \"cavity.toml\"\n[[ladder]]\n\"time.dt\" = 0.01\n", "bad.toml: ladder.time.dt = 0.01: expected a non-empty array"},
+      {"base = \"cavity.toml\"\n[[ladder]]\n\"time.dtt\" = [0.01]\n",
+       "bad.toml: member dtt=0.01: " },
+      {"base = \"cavity.toml\"\n[[ladder]]\n\"time.dt\" = [-0.01]\n", "time.dt = -0.01 (from --set): must be > 0"},
+      {"base = \"missing.toml\"\n[[ladder]]\n\"time.dt\" = [0.01]\n", "missing.toml: cannot read the case file"},
+      {"base = \"cavity.toml\"\nx = \"time.t_end\"\n[[ladder]]\n\"time.dt\" = [0.01]\n",
+       "bad.toml: x = \"time.t_end\": must be one of the ladder's keys"},
+      {"base = \"cavity.toml\"\nreference = \"dt=1\"\n[[ladder]]\n\"time.dt\" = [0.01]\n",
+       "reference = \"dt=1\": no member has that name"},
+      {"base = \"cavity.toml\"\n[[ladder]]\n\"time.dt\" = [0.01]\n[expect]\nmin_order = { Ninf = 1 }\n",
+       "bad.toml: expect.min_order.Ninf: unknown criterion"},
+      {"base = \"cavity.toml\"\n[[ladder]\n", "bad.toml: line 2"},
+  };
+  for (const auto& [text, expected] : cases) {
+    write(dir, "bad.toml", text);
+    const auto r = capsflow("study " + (dir / "bad.toml").string() + " --quiet --no-plots --out " +
+                                (dir / "out_bad").string(), dir);
+    EXPECT_EQ(r.status, 2) << text << r.err;
+    EXPECT_EQ(lines(r.err), 1) << r.err;
+    EXPECT_THAT(r.err, HasSubstr(expected)) << text;
+    EXPECT_FALSE(fs::exists(dir / "out_bad")) << text;
+  }
+  const auto none = capsflow("study " + (dir / "nothing.toml").string(), dir);
+  EXPECT_EQ(none.status, 2);
+  EXPECT_THAT(none.err, HasSubstr("nothing.toml: cannot read the study file: no such file"));
+}
+
+}  // namespace
+}  // namespace capsflow::app
