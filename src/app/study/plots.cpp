@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -63,12 +64,19 @@ bool make_plots(const fs::path& dir, const fs::path& executable) {
                          "CSV files are in %s\n", dir.c_str());
     return false;
   }
-  if (run({"python3", "-c", "import numpy, matplotlib"}, true) != 0) {
-    std::fprintf(stderr, "capsflow: warning: python3 with numpy and matplotlib is needed for the plots; no plots, the "
-                         "CSV files are in %s\n", dir.c_str());
+  // CAPSFLOW_PYTHON, else the first python3 that has numpy and matplotlib: the one on PATH
+  // (a pyenv shim, say) may lack them where the system's has them.
+  std::vector<std::string> pythons{"python3", "/usr/bin/python3"};
+  if (const char* env = std::getenv("CAPSFLOW_PYTHON")) pythons = {env};
+  const auto python = std::find_if(pythons.begin(), pythons.end(), [](const std::string& p) {
+    return run({p, "-c", "import numpy, matplotlib"}, true) == 0;
+  });
+  if (python == pythons.end()) {
+    std::fprintf(stderr, "capsflow: warning: python3 with numpy and matplotlib is needed for the plots (or set "
+                         "CAPSFLOW_PYTHON); no plots, the CSV files are in %s\n", dir.c_str());
     return false;
   }
-  if (run({"python3", script.string(), dir.string()}, false) != 0) {
+  if (run({*python, script.string(), dir.string()}, false) != 0) {
     std::fprintf(stderr, "capsflow: warning: %s failed; the CSV files are in %s\n", script.c_str(), dir.c_str());
     return false;
   }

@@ -124,7 +124,7 @@ struct Writer {
   std::string study_csv() const {
     std::string text = "member,status";
     for (const auto& [key, v] : members.front().values) text += fmt::format(",{}", csv_field(key));
-    text += ",series,reference,dt,max_level,adapt,nodes,t_end,N_inf,vmax,area_rel,volume_rel,D12,D12_bbox,D12_err,vmax_err";
+    text += ",series,reference,plotted,dt,max_level,dx,adapt,nodes,t_end,N_inf,vmax,area_rel,volume_rel,D12,D12_bbox,D12_err,vmax_err";
     for (const double t : s.d12_times) text += fmt::format(",D12@{0},D12_bbox@{0}", num(t));
     text += ",cells_mean,cells_final,steps,wall_s,run_s\n";
     for (std::size_t i = 0; i < members.size(); ++i) {
@@ -133,8 +133,11 @@ struct Writer {
       const auto& c = m.config;
       text += fmt::format("{},{}", csv_field(m.name), state_name(outcomes[i].state));
       for (const auto& [key, v] : m.values) text += fmt::format(",{}", csv_field(v));
-      text += fmt::format(",{},{},{},{},{},{}", csv_field(m.series), csv_field(members[m.reference].name),
-                          num(c.time.dt), c.adapt.max_level, c.adapt.enabled ? "on" : "off",
+      const bool plotted = s.plot_members.empty() ||
+                           std::find(s.plot_members.begin(), s.plot_members.end(), m.name) != s.plot_members.end();
+      text += fmt::format(",{},{},{},{},{},{},{},{}", csv_field(m.series), csv_field(members[m.reference].name),
+                          plotted ? 1 : 0, num(c.time.dt), c.adapt.max_level,
+                          num(std::ldexp(c.domain.root_size, -c.adapt.max_level)), c.adapt.enabled ? "on" : "off",
                           c.capsules.empty() ? 0 : c.capsules.front().nodes);
       if (!r.available) {
         // Empty criteria, D12 times and costs; the process time of a failed run.

@@ -117,7 +117,7 @@ class Runner {
   std::vector<MemberOutcome> run() {
     std::vector<std::size_t> pending;
     for (std::size_t i = 0; i < members_.size(); ++i) {
-      const double before = finished_before(members_[i], member_dir(o_, members_[i]));
+      const double before = o_.rerun ? -1.0 : finished_before(members_[i], member_dir(o_, members_[i]));
       if (before >= 0.0) outcomes_[i] = {.state = MemberState::skipped, .run_s = before};
       else {
         pending.push_back(i);

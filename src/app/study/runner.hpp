@@ -25,6 +25,7 @@ struct RunnerOptions {
   std::filesystem::path members_dir;  // one folder per member inside
   int jobs = 1;
   bool quiet = false;
+  bool rerun = false;                 // run finished members again
   std::filesystem::path executable;   // this binary
 };
 

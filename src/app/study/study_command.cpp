@@ -53,9 +53,13 @@ CLI::App* add_study_subcommand(CLI::App& cli, StudyRequest& r) {
                                           "study.csv and plots (docs/studies.md)");
   sub->add_option("study", r.file, "Study file (TOML; docs/studies.md)")->required();
   sub->add_option("--out", r.out, "Study folder (default out/studies/<name>); members in <out>/members/");
+  sub->add_option("--set", r.set, "Override a key of every member's case after the study's set (repeatable), "
+                                  "e.g. --set time.t_end=0.05 for a shorter study")
+      ->type_name("KEY=VALUE");
   sub->add_option("--jobs", r.jobs, "Members run at once (default 1)")->check(CLI::Range(1, 256));
   sub->add_flag("--quiet", r.quiet, "No progress line");
   sub->add_flag("!--no-plots", r.plots, "Write the CSV files only");
+  sub->add_flag("--rerun", r.rerun, "Run every member again, even those a previous run of the study finished");
   return sub;
 }
 
@@ -64,12 +68,14 @@ int run_study(const StudyRequest& req) {
   std::vector<Member> members;
   try {
     s = io::parse_study(req.file);
+    s.set.insert(s.set.end(), req.set.begin(), req.set.end());
     members = expand_members(s);
   } catch (const io::CaseError& e) {
     return bad_input(e.what());
   }
   const fs::path dir = req.out ? *req.out : fs::path("out") / "studies" / s.name;
-  RunnerOptions o{.members_dir = dir / "members", .jobs = req.jobs, .quiet = req.quiet, .executable = {}};
+  RunnerOptions o{.members_dir = dir / "members", .jobs = req.jobs, .quiet = req.quiet, .rerun = req.rerun,
+                  .executable = {}};
   std::error_code ec;
   o.executable = fs::read_symlink("/proc/self/exe", ec);
   if (ec) return bad_input(fmt::format("cannot find this binary (/proc/self/exe): {}", ec.message()));

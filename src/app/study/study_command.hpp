@@ -5,15 +5,19 @@
 
 #include <filesystem>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace capsflow::app::study {
 
 struct StudyRequest {
   std::filesystem::path file;
   std::optional<std::filesystem::path> out;  // default out/studies/<name>
+  std::vector<std::string> set;  // --set for every member, after the study's own
   int jobs = 1;
   bool quiet = false;
   bool plots = true;
+  bool rerun = false;  // run every member again, finished or not
 };
 
 // Adds the subcommand and its options to the command line, filling `request`.
