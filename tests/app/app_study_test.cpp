@@ -3,6 +3,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <signal.h>
+
 #include <cmath>
 
 #include "app/study/orders.hpp"
@@ -189,6 +192,56 @@ TEST(Study, PlotsComeWithTheirData) {
   EXPECT_EQ(lines(data), 4) << data;
   EXPECT_THAT(data, HasSubstr(",max_level=4,0.0625,"));
   EXPECT_EQ(lines(slurp(dir / "out" / "error_vs_cost.csv")), 3);  // the reference has no error
+}
+
+// SIGTERM to a running study: the running member stops (its own checkpoint), no other
+// starts, exit status 143; the same command then runs only what did not finish.
+TEST(Study, SignalStopsTheStudyAndTheNextRunResumes) {
+  const fs::path dir = scratch("study_signal");
+  write(dir, "cavity.toml", test_cases::small_cavity("[output]\nvtu = false\n"));
+  const fs::path file = write(dir, "slow.toml", R"(base = "cavity.toml"
+set = ["time.dt=0.0005", "time.t_end=0.05", "adapt.enabled=false"]
+[[ladder]]
+"adapt.max_level" = [3, 7, 4]
+)");
+  const fs::path members = dir / "out" / "members";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int err = ::open((dir / "stderr.txt").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(err, STDERR_FILENO);
+    setenv("OMP_NUM_THREADS", "1", 1);
+    execl(CAPSFLOW_BINARY, CAPSFLOW_BINARY, "study", file.c_str(), "--quiet", "--no-plots", "--out",
+          (dir / "out").c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Once the first member is done and the second (100 steps on 16k cells) has written a row,
+  // stop the study.
+  for (int i = 0; i < 3000 && !(fs::exists(members / "max_level=3" / "study_done.txt") &&
+                                fs::exists(members / "max_level=7" / "diagnostics.csv"));
+       ++i)
+    usleep(10000);
+  kill(pid, SIGTERM);
+  int raw = 0;
+  ASSERT_EQ(waitpid(pid, &raw, 0), pid);
+  ASSERT_TRUE(WIFEXITED(raw));
+  EXPECT_EQ(WEXITSTATUS(raw), 143) << slurp(dir / "stderr.txt");
+  EXPECT_THAT(slurp(dir / "stderr.txt"), HasSubstr("run the same command again to resume"));
+  EXPECT_FALSE(fs::exists(members / "max_level=7" / "study_done.txt"));
+  EXPECT_FALSE(fs::exists(members / "max_level=4"));  // never started
+  const std::string text = slurp(dir / "out" / "study.csv");
+  EXPECT_THAT(text, HasSubstr("max_level=3,ran,"));
+  EXPECT_THAT(text, HasSubstr("max_level=7,interrupted,"));
+  EXPECT_THAT(text, HasSubstr("max_level=4,not_run,"));
+
+  const auto stamp = fs::last_write_time(members / "max_level=3" / "diagnostics.csv");
+  const auto again = capsflow("study " + file.string() + " --quiet --no-plots --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(again.status, 0) << again.err;
+  EXPECT_EQ(fs::last_write_time(members / "max_level=3" / "diagnostics.csv"), stamp);
+  const std::string resumed = slurp(dir / "out" / "study.csv");
+  EXPECT_THAT(resumed, HasSubstr("max_level=3,skipped,"));
+  EXPECT_THAT(resumed, HasSubstr("max_level=7,ran,"));
+  EXPECT_THAT(resumed, HasSubstr("max_level=4,ran,"));
 }
 
 // [expect] lines that do not hold: exit status 1, each named.

@@ -128,10 +128,11 @@ class Runner {
     while (next < pending.size() || !running_.empty()) {
       while (interrupt_signal() == 0 && next < pending.size() && static_cast<int>(running_.size()) < o_.jobs)
         start(pending[next++]);
-      if (interrupt_signal() != 0 && !forwarded_) {
-        for (const Running& r : running_) kill(r.pid, interrupt_signal());
+      if (interrupt_signal() != 0) {
+        if (!forwarded_)
+          for (const Running& r : running_) kill(r.pid, interrupt_signal());
         forwarded_ = true;
-        if (running_.empty()) break;
+        if (running_.empty()) break;  // the members not started stay not_run
       }
       reap();
       show(false);
