@@ -1,13 +1,12 @@
 #include "app/study/plots.hpp"
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 #include <vector>
+
+#include "app/study/spawn.hpp"
 
 namespace capsflow::app::study {
 
@@ -32,29 +31,6 @@ fs::path find_script(const fs::path& executable) {
   return {};
 }
 
-// Exit status of a command (no shell), its stdout and stderr kept or sent to /dev/null.
-int run(std::vector<std::string> args, bool silent) {
-  const pid_t pid = fork();
-  if (pid < 0) return -1;
-  if (pid == 0) {
-    if (silent) {
-      if (std::FILE* null = std::fopen("/dev/null", "w")) {
-        dup2(fileno(null), STDOUT_FILENO);
-        dup2(fileno(null), STDERR_FILENO);
-      }
-    }
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  int raw = 0;
-  while (waitpid(pid, &raw, 0) < 0) {
-  }
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-}
-
 }  // namespace
 
 bool make_plots(const fs::path& dir, const fs::path& executable) {
@@ -69,14 +45,14 @@ bool make_plots(const fs::path& dir, const fs::path& executable) {
   std::vector<std::string> pythons{"python3", "/usr/bin/python3"};
   if (const char* env = std::getenv("CAPSFLOW_PYTHON")) pythons = {env};
   const auto python = std::find_if(pythons.begin(), pythons.end(), [](const std::string& p) {
-    return run({p, "-c", "import numpy, matplotlib"}, true) == 0;
+    return run_to_end({p, "-c", "import numpy, matplotlib"}, {.output = "/dev/null", .env_defaults = {}}) == 0;
   });
   if (python == pythons.end()) {
     std::fprintf(stderr, "capsflow: warning: python3 with numpy and matplotlib is needed for the plots (or set "
                          "CAPSFLOW_PYTHON); no plots, the CSV files are in %s\n", dir.c_str());
     return false;
   }
-  if (run({*python, script.string(), dir.string()}, false) != 0) {
+  if (run_to_end({*python, script.string(), dir.string()}) != 0) {
     std::fprintf(stderr, "capsflow: warning: %s failed; the CSV files are in %s\n", script.c_str(), dir.c_str());
     return false;
   }

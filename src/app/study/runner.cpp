@@ -1,6 +1,5 @@
 #include "app/study/runner.hpp"
 
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -16,6 +15,7 @@
 
 #include "app/interrupt.hpp"
 #include "app/progress.hpp"
+#include "app/study/spawn.hpp"
 #include "io/atomic_write.hpp"
 
 namespace capsflow::app::study {
@@ -88,25 +88,13 @@ pid_t launch(const RunnerOptions& o, const Member& m, const fs::path& dir) {
     args.emplace_back("--set");
     args.push_back(s);
   }
-  const std::string log = (dir / "run.log").string();
-  const pid_t pid = fork();
-  if (pid != 0) return pid;  // the parent, or -1
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd >= 0) {
-    dup2(fd, STDOUT_FILENO);
-    dup2(fd, STDERR_FILENO);
-    close(fd);
-  }
-  signal(SIGINT, SIG_DFL);  // the study forwards signals itself
+  SpawnOptions spawn_options{.output = dir / "run.log", .env_defaults = {}};
   // Members side by side share the cores, unless the user said otherwise.
-  if (o.jobs > 1 && std::getenv("OMP_NUM_THREADS") == nullptr)
-    setenv("OMP_NUM_THREADS", std::to_string(std::max(1u, std::thread::hardware_concurrency() / o.jobs)).c_str(), 1);
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  execv(argv[0], argv.data());
-  std::fprintf(stderr, "cannot start %s\n", argv[0]);
-  _exit(127);
+  if (o.jobs > 1) {
+    const unsigned threads = std::max(1u, std::thread::hardware_concurrency() / static_cast<unsigned>(o.jobs));
+    spawn_options.env_defaults.emplace_back("OMP_NUM_THREADS", std::to_string(threads));
+  }
+  return spawn(std::move(args), spawn_options);
 }
 
 class Runner {

@@ -26,7 +26,7 @@ struct RunnerOptions {
   int jobs = 1;
   bool quiet = false;
   bool rerun = false;                 // run finished members again
-  std::filesystem::path executable;   // this binary
+  std::filesystem::path executable;   // the binary members run (/proc/self/exe)
 };
 
 // The folder a member runs in.

@@ -75,10 +75,12 @@ int run_study(const StudyRequest& req) {
   }
   const fs::path dir = req.out ? *req.out : fs::path("out") / "studies" / s.name;
   RunnerOptions o{.members_dir = dir / "members", .jobs = req.jobs, .quiet = req.quiet, .rerun = req.rerun,
-                  .executable = {}};
+                  .executable = "/proc/self/exe"};
   std::error_code ec;
-  o.executable = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) return bad_input(fmt::format("cannot find this binary (/proc/self/exe): {}", ec.message()));
+  // Members run /proc/self/exe: this very binary even if a rebuild replaces the file meanwhile.
+  // Its path (for the plot script next to it) is read now, before such a rebuild.
+  const fs::path binary = fs::read_symlink(o.executable, ec);
+  if (ec) return bad_input(fmt::format("cannot find this binary ({}): {}", o.executable.string(), ec.message()));
   fs::create_directories(o.members_dir, ec);
   if (ec || access(dir.c_str(), W_OK) != 0)
     return bad_input(fmt::format("{}: cannot create or write the study folder{}", dir.string(),
@@ -94,7 +96,7 @@ int run_study(const StudyRequest& req) {
                  s.name.c_str(), interrupt_signal());
     return 128 + interrupt_signal();
   }
-  if (req.plots) (void)make_plots(dir, o.executable);
+  if (req.plots) (void)make_plots(dir, binary);
   int failed = 0;
   for (const MemberOutcome& m : outcomes) failed += m.state == MemberState::failed;
   for (const std::string& f : failures) std::fprintf(stderr, "capsflow: study expectation failed: %s\n", f.c_str());
