@@ -140,11 +140,17 @@ class Runner {
 
   void start(std::size_t i) {
     const fs::path dir = member_dir(o_, members_[i]);
-    fs::create_directories(dir);
-    fs::remove(dir / kDone);
-    const pid_t pid = launch(o_, members_[i], dir);
+    std::error_code ec;
+    // The folder is the study's: what an unfinished or older run left (checkpoints, snapshots) goes.
+    fs::remove_all(dir, ec);
+    if (!ec) fs::create_directories(dir, ec);
+    const pid_t pid = ec ? -1 : launch(o_, members_[i], dir);
     if (pid < 0) {
-      outcomes_[i] = {.state = MemberState::failed, .exit_status = -1, .message = "fork failed"};
+      outcomes_[i] = {.state = MemberState::failed, .exit_status = -1,
+                      .message = ec ? fmt::format("{}: {}", dir.string(), ec.message()) : "fork failed"};
+      progress_.finish();
+      std::fprintf(stderr, "capsflow: study member %s not started: %s\n", members_[i].name.c_str(),
+                   outcomes_[i].message.c_str());
       return;
     }
     running_.push_back({i, pid, Clock::now()});
