@@ -8,7 +8,7 @@ writes, each with the CSV of the data it shows:
   error_vs_<x>.png   the seed's four criteria (N_inf, vmax, |dS/S0|, |dV/V0|) at t_end against
                      the ladder's x (the seed's Figure 4 a-d), one line per series, the
                      observed order written on each segment;
-  error_vs_cost.png  the study's error against mean cells and against wall time, one line
+  error_vs_cost.png  the study's error against mean cells, wall time and CPU time, one line
                      per series (uniform and adaptive on one plot);
   d12.png            D12(t) and D12_bbox(t) of the plotted members (the seed's Figure 5).
 """
@@ -131,17 +131,19 @@ def plot_criteria(out, study, orders, key, column, xlabel):
 
 def plot_cost(out, study, error, key):
     column = {"N_inf": "N_inf", "D12": "D12_err", "vmax": "vmax_err"}[error]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     table = []
     by_series = {}
     for r in study:
         if r["t_end"] and r["member"] != r["reference"] and usable(number(r[column])):
             by_series.setdefault(r["series"], []).append(r)
-            table.append([r["series"], r["member"], r[column], r["cells_mean"], r["wall_s"]])
+            table.append([r["series"], r["member"], r[column], r["cells_mean"], r["wall_s"], r["cpu_s"]])
     if not by_series:
         print(f"plot_study.py: no member has a positive {column}; error_vs_cost.png not drawn")
         return
-    for ax, cost, xlabel in zip(axes, ["cells_mean", "wall_s"], ["mean leaf cells", "wall time of the time loop (s)"]):
+    costs = ["cells_mean", "wall_s", "cpu_s"]
+    labels = ["mean leaf cells", "wall time of the time loop (s)", "CPU time of the run, all threads (s)"]
+    for ax, cost, xlabel in zip(axes, costs, labels):
         for series, members in by_series.items():
             label = key.split(".")[-1].split("[")[0]
             pts = sorted((number(r[cost]), number(r[column]), f"{label}={r[key]}") for r in members)
@@ -159,7 +161,7 @@ def plot_cost(out, study, error, key):
     png = os.path.join(out, "error_vs_cost.png")
     fig.savefig(png, dpi=110)
     plt.close(fig)
-    write_csv(os.path.join(out, "error_vs_cost.csv"), ["series", "member", column, "cells_mean", "wall_s"], table)
+    write_csv(os.path.join(out, "error_vs_cost.csv"), ["series", "member", column] + costs, table)
     print(f"wrote {png}")
 
 

@@ -117,6 +117,7 @@ TEST(Study, TinyStudyReportsEveryMemberAndItsOrders) {
     EXPECT_EQ(row[t.column("steps")], 10);
     EXPECT_NEAR(row[t.column("t_end")], 0.02, 1e-12);
     EXPECT_GT(row[t.column("cells_mean")], 0);
+    EXPECT_GT(row[t.column("cpu_s")], 0);
     // The reference (max_level=5) has no error against itself.
     EXPECT_THAT(text, HasSubstr(m + ",ran," + level + ",,max_level=5,1,0.002," + level + ","));
   }

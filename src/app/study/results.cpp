@@ -126,7 +126,7 @@ struct Writer {
     for (const auto& [key, v] : members.front().values) text += fmt::format(",{}", csv_field(key));
     text += ",series,reference,plotted,dt,max_level,dx,adapt,nodes,t_end,N_inf,vmax,area_rel,volume_rel,D12,D12_bbox,D12_err,vmax_err";
     for (const double t : s.d12_times) text += fmt::format(",D12@{0},D12_bbox@{0}", num(t));
-    text += ",cells_mean,cells_final,steps,wall_s,run_s\n";
+    text += ",cells_mean,cells_final,steps,wall_s,run_s,cpu_s\n";
     for (std::size_t i = 0; i < members.size(); ++i) {
       const Member& m = members[i];
       const MemberResult& r = results[i];
@@ -140,14 +140,16 @@ struct Writer {
                           num(std::ldexp(c.domain.root_size, -c.adapt.max_level)), c.adapt.enabled ? "on" : "off",
                           c.capsules.empty() ? 0 : c.capsules.front().nodes);
       if (!r.available) {
-        // Empty criteria, D12 times and costs; the process time of a failed run.
-        text += fmt::format("{}{}\n", std::string(9 + 2 * s.d12_times.size() + 5, ','), num(outcomes[i].run_s));
+        // Empty criteria, D12 times and costs; the process times of a failed run.
+        text += fmt::format("{}{},{}\n", std::string(9 + 2 * s.d12_times.size() + 5, ','), num(outcomes[i].run_s),
+                            num(outcomes[i].cpu_s));
         continue;
       }
       for (const double v : {r.t_end, r.N_inf, r.vmax, r.area_rel, r.volume_rel, r.D12, r.D12_bbox, r.D12_err, r.vmax_err})
         text += fmt::format(",{}", v);
       for (std::size_t k = 0; k < s.d12_times.size(); ++k) text += fmt::format(",{},{}", r.d12_at[k], r.d12_bbox_at[k]);
-      for (const double v : {r.cells_mean, r.cells_final, r.steps, r.wall_s, outcomes[i].run_s}) text += fmt::format(",{}", v);
+      for (const double v : {r.cells_mean, r.cells_final, r.steps, r.wall_s, outcomes[i].run_s, outcomes[i].cpu_s})
+        text += fmt::format(",{}", v);
       text += "\n";
     }
     return text;
@@ -196,23 +198,26 @@ struct Writer {
 
   std::string equal_error_csv() {
     std::string text = fmt::format(
-        "uniform_member,{0},cells_uniform,cells_adaptive,cells_ratio,wall_uniform,wall_adaptive,wall_ratio\n", s.error);
+        "uniform_member,{0},cells_uniform,cells_adaptive,cells_ratio,wall_uniform,wall_adaptive,wall_ratio,cpu_uniform,"
+        "cpu_adaptive,cpu_ratio\n",
+        s.error);
     bool any = false;
     for (std::size_t u = 0; u < members.size(); ++u) {
       if (members[u].config.adapt.enabled || !results[u].available || members[u].reference == u) continue;
-      std::vector<std::pair<double, double>> cells, wall;
+      std::vector<std::pair<double, double>> cells, wall, cpu;
       for (std::size_t a = 0; a < members.size(); ++a)
         if (members[a].config.adapt.enabled && results[a].available && members[a].reference != a &&
             counterpart_key(s, members[a]) == counterpart_key(s, members[u])) {
           cells.emplace_back(error_of(s, results[a]), results[a].cells_mean);
           wall.emplace_back(error_of(s, results[a]), results[a].wall_s);
+          cpu.emplace_back(error_of(s, results[a]), outcomes[a].cpu_s);
         }
       if (cells.empty()) continue;
       const double e = error_of(s, results[u]);
-      const double ca = cost_at_error(cells, e), wa = cost_at_error(wall, e);
-      const double cu = results[u].cells_mean, wu = results[u].wall_s;
-      text += fmt::format("{},{},{},{},{},{},{},{}\n", csv_field(members[u].name), num(e), num(cu), num(ca), num(cu / ca),
-                          num(wu), num(wa), num(wu / wa));
+      const double ca = cost_at_error(cells, e), wa = cost_at_error(wall, e), pa = cost_at_error(cpu, e);
+      const double cu = results[u].cells_mean, wu = results[u].wall_s, pu = outcomes[u].cpu_s;
+      text += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(members[u].name), num(e), num(cu), num(ca),
+                          num(cu / ca), num(wu), num(wa), num(wu / wa), num(pu), num(pa), num(pu / pa));
       if (!std::isfinite(ca)) continue;
       any = true;
       if (s.expect.min_cells_ratio > 0 && !(cu / ca >= s.expect.min_cells_ratio))

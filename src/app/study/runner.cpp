@@ -1,6 +1,7 @@
 #include "app/study/runner.hpp"
 
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -34,14 +35,18 @@ std::string slurp(const fs::path& p) {
   return ss.str();
 }
 
-// The member's earlier run is complete and of the same case: its process time, else a negative number.
-double finished_before(const Member& m, const fs::path& dir) {
-  if (!fs::exists(dir / kDone) || slurp(dir / "case.toml") != io::to_toml(m.config)) return -1.0;
+// Whether the member's earlier run is complete and of the same case; its times from kDone
+// ("run_s X cpu_s Y") into `out`.
+bool finished_before(const Member& m, const fs::path& dir, MemberOutcome& out) {
+  if (!fs::exists(dir / kDone) || slurp(dir / "case.toml") != io::to_toml(m.config)) return false;
   std::istringstream in(slurp(dir / kDone));
   std::string word;
   double seconds = 0.0;
-  in >> word >> seconds;
-  return word == "run_s" ? seconds : 0.0;
+  while (in >> word >> seconds) {
+    if (word == "run_s") out.run_s = seconds;
+    if (word == "cpu_s") out.cpu_s = seconds;
+  }
+  return true;
 }
 
 // A rough cost of a member, for the study's ETA: steps times the cells of its finest grid
@@ -105,8 +110,8 @@ class Runner {
   std::vector<MemberOutcome> run() {
     std::vector<std::size_t> pending;
     for (std::size_t i = 0; i < members_.size(); ++i) {
-      const double before = o_.rerun ? -1.0 : finished_before(members_[i], member_dir(o_, members_[i]));
-      if (before >= 0.0) outcomes_[i] = {.state = MemberState::skipped, .run_s = before};
+      MemberOutcome before{.state = MemberState::skipped};
+      if (!o_.rerun && finished_before(members_[i], member_dir(o_, members_[i]), before)) outcomes_[i] = before;
       else {
         pending.push_back(i);
         total_weight_ += weight(members_[i]);
@@ -159,7 +164,8 @@ class Runner {
   void reap() {
     for (auto it = running_.begin(); it != running_.end();) {
       int raw = 0;
-      if (waitpid(it->pid, &raw, WNOHANG) != it->pid) {
+      rusage usage{};
+      if (wait4(it->pid, &raw, WNOHANG, &usage) != it->pid) {
         ++it;
         continue;
       }
@@ -167,10 +173,12 @@ class Runner {
       const fs::path dir = member_dir(o_, m);
       MemberOutcome& out = outcomes_[it->index];
       out.run_s = std::chrono::duration<double>(Clock::now() - it->start).count();
+      out.cpu_s = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                  1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
       out.exit_status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
       if (out.exit_status == 0) {
         out.state = MemberState::ran;
-        io::atomic_write_text(dir / kDone, fmt::format("run_s {}\n", out.run_s));
+        io::atomic_write_text(dir / kDone, fmt::format("run_s {}\ncpu_s {}\n", out.run_s, out.cpu_s));
       } else {
         out.state = out.exit_status == 130 || out.exit_status == 143 ? MemberState::interrupted : MemberState::failed;
         out.message = last_line(dir / "run.log");

@@ -19,6 +19,7 @@ struct MemberOutcome {
   int exit_status = 0;     // of the member's run
   std::string message;     // a failure's last line of run.log
   double run_s = 0.0;      // the run's process wall time (kept from the first run when skipped)
+  double cpu_s = 0.0;      // its CPU time, user + system, all threads (less sensitive to a loaded machine)
 };
 
 struct RunnerOptions {
