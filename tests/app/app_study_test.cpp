@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "app/study/members.hpp"
 #include "app/study/orders.hpp"
 #include "app_support.hpp"
 #include "io/csv_table.hpp"
@@ -70,6 +71,27 @@ io::CsvTable numeric_study_csv(const fs::path& out, std::string& text) {
   }
   write(out, "study_numeric.csv", blanked);
   return io::read_csv_table(out / "study_numeric.csv");
+}
+
+// Every study in cases/studies/ parses, and so does every member's case.
+TEST(Study, EveryReadyStudyExpands) {
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(std::string(CAPSFLOW_CASES_DIR) + "/studies")) {
+    if (entry.path().extension() != ".toml") continue;
+    std::vector<study::Member> members;
+    EXPECT_NO_THROW(members = study::expand_members(io::parse_study(entry.path()))) << entry.path();
+    EXPECT_GE(members.size(), 2u) << entry.path();
+    ++count;
+  }
+  EXPECT_GE(count, 5);
+  // The seed's time-step study: 4 time steps x 2 meshes, each mesh's reference its dt = 1e-4.
+  const auto seed = study::expand_members(io::parse_study(std::string(CAPSFLOW_CASES_DIR) + "/studies/seed_dt.toml"));
+  ASSERT_EQ(seed.size(), 8u);
+  for (const auto& m : seed) {
+    EXPECT_EQ(seed[m.reference].config.time.dt, 1e-4) << m.name;
+    EXPECT_EQ(seed[m.reference].config.capsules[0].nodes, m.config.capsules[0].nodes) << m.name;
+  }
+  EXPECT_EQ(seed.front().name, "nodes=10242+dt=0.001");
 }
 
 TEST(Study, OrdersFromSyntheticErrors) {
