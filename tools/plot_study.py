@@ -137,7 +137,7 @@ def plot_cost(out, study, error, key):
     for r in study:
         if r["t_end"] and r["member"] != r["reference"] and usable(number(r[column])):
             by_series.setdefault(r["series"], []).append(r)
-            table.append([r["series"], r["member"], r[column], r["cells_mean"], r["wall_s"], r["cpu_s"]])
+            table.append([r["series"], r["member"], r[column], r["cells_mean"], r["wall_s"], r.get("cpu_s", "nan")])
     if not by_series:
         print(f"plot_study.py: no member has a positive {column}; error_vs_cost.png not drawn")
         return
@@ -146,7 +146,8 @@ def plot_cost(out, study, error, key):
     for ax, cost, xlabel in zip(axes, costs, labels):
         for series, members in by_series.items():
             label = key.split(".")[-1].split("[")[0]
-            pts = sorted((number(r[cost]), number(r[column]), f"{label}={r[key]}") for r in members)
+            pts = sorted((number(r.get(cost)), number(r[column]), f"{label}={r[key]}") for r in members)
+            pts = [p for p in pts if usable(p[0])]  # cpu_s: absent from studies of older builds
             ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=series_label(series))
             for p in pts:
                 ax.annotate(p[2], (p[0], p[1]), textcoords="offset points", xytext=(4, 4), fontsize=6)
