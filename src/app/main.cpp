@@ -15,6 +15,7 @@
 #include "app/output_dir.hpp"
 #include "app/progress.hpp"
 #include "app/run_case.hpp"
+#include "app/study/study_command.hpp"
 #include "io/errors.hpp"
 #include "parallel/comm.hpp"
 
@@ -59,6 +60,9 @@ int main(int argc, char** argv) {
                 "checkpoints); without it such a folder is refused, unless --restart continues from a "
                 "checkpoint in it");
 
+  capsflow::app::study::StudyRequest study_request;
+  auto* study = capsflow::app::study::add_study_subcommand(cli, study_request);
+
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -68,6 +72,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "capsflow: %s (see capsflow --help)\n", e.what());
     return 2;
   }
+  if (study->parsed()) return capsflow::app::study::run_study(study_request);
   if (!adapt.empty()) request.adapt = adapt == "on";
   if (!out.empty()) request.out = out;
   if (!restart.empty()) request.restart = restart;

@@ -26,20 +26,35 @@ void ProgressLine::update(const ProgressState& s, bool force) {
     first_step_ = s.step - 1;  // the step before the first one of this run
     first_t_ = s.t - s.dt;  // the time this run started from (a restart starts late)
   }
-  const double since = std::chrono::duration<double>(now - last_print_).count();
-  if (!force && since < (terminal_ ? 0.2 : 5.0)) return;
-  last_print_ = now;
+  if (!force && !due()) return;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double rate = elapsed > 0 ? double(s.step - first_step_) / elapsed : 0.0;
   const double fraction = s.t_end > 0 ? s.t / s.t_end : 1.0;
   // The remaining time at the rate of this run (not of the run a restart resumed).
   const double done = s.t - first_t_;
   const double eta = done > 0 ? elapsed * (s.t_end - s.t) / done : 0.0;
-  const auto seconds = static_cast<long>(eta);
-  std::string line = fmt::format("step {}  t {:.4g}/{:.4g} ({:.0f}%)  dt {:.2e}  cells {}  level {}  mg {}  "
-                                 "{:.1f} steps/s  ETA {}:{:02d}:{:02d}",
-                                 s.step, s.t, s.t_end, 100 * fraction, s.dt, s.cells, s.max_level, s.mg_cycles,
-                                 rate, seconds / 3600, (seconds / 60) % 60, seconds % 60);
+  print(fmt::format("step {}  t {:.4g}/{:.4g} ({:.0f}%)  dt {:.2e}  cells {}  level {}  mg {}  "
+                    "{:.1f} steps/s  ETA {}",
+                    s.step, s.t, s.t_end, 100 * fraction, s.dt, s.cells, s.max_level, s.mg_cycles, rate, hms(eta)));
+}
+
+std::string hms(double seconds) {
+  const auto s = static_cast<long>(seconds);
+  return fmt::format("{}:{:02d}:{:02d}", s / 3600, (s / 60) % 60, s % 60);
+}
+
+void ProgressLine::show(std::string line, bool force) {
+  if (quiet_ || (!force && !due())) return;
+  print(std::move(line));
+}
+
+bool ProgressLine::due() const {
+  const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - last_print_).count();
+  return since >= (terminal_ ? 0.2 : 5.0);
+}
+
+void ProgressLine::print(std::string line) {
+  last_print_ = std::chrono::steady_clock::now();
   if (terminal_) {
     const std::size_t width = line.size();
     if (width < last_width_) line.append(last_width_ - width, ' ');

@@ -18,13 +18,21 @@ struct ProgressState {
 // must start on a new line (and only then: with --quiet or into a log the line is complete).
 [[nodiscard]] bool progress_line_open();
 
+// A duration as h:mm:ss (whole seconds).
+[[nodiscard]] std::string hms(double seconds);
+
 class ProgressLine {
  public:
   explicit ProgressLine(bool quiet);
   void update(const ProgressState& s, bool force = false);
+  // Any line (a study's, app/study/runner.cpp), shown like update's: at most every 0.2 s on
+  // a terminal (rewriting itself) and every 5 s otherwise, unless forced.
+  void show(std::string line, bool force = false);
   void finish();
 
  private:
+  [[nodiscard]] bool due() const;  // enough time since the last line
+  void print(std::string line);
   bool quiet_;
   bool terminal_;
   std::chrono::steady_clock::time_point start_, last_print_;
