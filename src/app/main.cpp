@@ -72,7 +72,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "capsflow: %s (see capsflow --help)\n", e.what());
     return 2;
   }
-  if (study->parsed()) return capsflow::app::study::run_study(study_request);
+  if (study->parsed()) {
+    // A study launches its members as processes of its own; N copies of it would run every
+    // member N times over the same folders.
+    if (world.size() > 1) {
+      if (world.is_root())
+        std::fprintf(stderr, "capsflow: study on %d MPI ranks: run the study without mpirun (its members are "
+                             "separate runs)\n", world.size());
+      return 2;
+    }
+    return capsflow::app::study::run_study(study_request);
+  }
   if (!adapt.empty()) request.adapt = adapt == "on";
   if (!out.empty()) request.out = out;
   if (!restart.empty()) request.restart = restart;
