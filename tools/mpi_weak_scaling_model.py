@@ -13,8 +13,9 @@ BENCH_LINES: output lines of `capsflow_mpi_bench uniform128 stokes STEPS` on 1 r
 - other levels: each rank's part is a Morton block of n_l = 8^l / P cells; its ghost cells
   are the shell of width w around it, g_l = (n_l^(1/3) + 2w)^3 - n_l (w = 2, 3 on the
   parent levels, which the dilation widens), times a shape factor fitted to the ghosts
-  measured on 2-4 ranks (Morton halves are slabs, quarters columns, eighths cubes);
-  neighbour ranks min(26, P - 1);
+  measured on 2-4 ranks (their parts touch the walls, which need no ghosts; Morton halves
+  are slabs, quarters columns) for P <= 8, and 1 beyond (the busiest rank is inside the
+  domain, its whole shell is ghosts); neighbour ranks min(26, P - 1);
 - an exchange costs alpha per message and beta per byte; the exchanges per step and level
   are the measured ones; the compute time per cell and step is the 1-rank run's; no
   overlap of messages with work.
@@ -87,6 +88,7 @@ def main():
           f"replicated {e_rep}")
     print(f"{'P':>5} {'levels':>6} {'compute s':>10} {'messages s':>10} {'worst level':>12} {'eff p2p':>8} "
           f"{'eff allgather':>13}")
+    detail = []
     for p in [1, 2, 8, 64, 512, 1024]:
         levels = finest + round(math.log(p / int(ref["ranks"]), 8)) if p > 1 else finest
         levels = max(levels, finest)
@@ -102,15 +104,21 @@ def main():
                 cost_ag = alpha * math.ceil(math.log2(p)) + beta * 8 * total
                 e = e_rep
             else:
-                g = factor * shell(total / p, 2 if l == levels else 3)
+                g = (factor if p <= 8 else 1.0) * shell(total / p, 2 if l == levels else 3)
                 cost_p2p = cost_ag = alpha * min(26, p - 1) + beta * 8 * g
                 e = e_fine if l == levels else e_mid
             comm_p2p += e * cost_p2p
             comm_ag += e * cost_ag
             worst = max(worst, (e * cost_ag, l))
+            if p == 1024:
+                detail.append((l, total / p, "replicated" if total <= min(64 * p, 32768) else
+                               f"ghosts/owned {g / (total / p):.1f}", e * cost_ag))
         eff_p2p = compute / (compute + comm_p2p)
         eff_ag = compute / (compute + comm_ag)
         print(f"{p:>5} {levels:>6} {compute:>10.3f} {comm_ag:>10.3f} {worst[1]:>12} {eff_p2p:>8.2f} {eff_ag:>13.2f}")
+    print("\nP = 1024, per level (messages with MPI_Allgatherv on the replicated levels):")
+    for l, per_rank, what, cost in detail:
+        print(f"  level {l:>2}: {per_rank:12.3g} cells per rank, {what:>22}, {cost * 1e3:7.2f} ms per step")
     return 0
 
 
