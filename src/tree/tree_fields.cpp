@@ -168,10 +168,10 @@ void Tree<D>::restrict_and_exchange(std::span<double> v, int coarsest) const {
     for (int l = depth_ - 1; l >= coarsest; --l) restrict_level(l, v);
     return;
   }
-  // The leaves' ghosts first (the caller's values); then each level's parents, restricted
-  // where this rank owns them (their children are owned or ghosts) and exchanged.
-  exchange_all(v);
-  for (int l = global_depth_ - 1; l >= coarsest; --l) {
+  // From the deepest level up: a level's parents are restricted (their children, owned or
+  // ghosts, were exchanged one level below), then the level is exchanged once, its leaves
+  // (the caller's values) and its parents together.
+  for (int l = global_depth_; l >= coarsest; --l) {
     if (l < depth_) restrict_level(l, v);
     exchange_level(l, v);
   }

@@ -183,8 +183,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance) &&
          std::isfinite(current)) {
     if (!opt.krylov) {
-      vcycle(op, res, da, scratch, opt, a, restricted);  // a += da
-      t.exchange_all(a);  // the ghosts' a from their owners (their da was fused in before the exchange)
+      // a += da; a ghost's a is wrong here (its da was fused in before the exchange) until
+      // compute_residual's sync brings the owners' values.
+      vcycle(op, res, da, scratch, opt, a, restricted);
     } else {
       // z = B r (a cycle writes res on the parents only: the leaves stay for the step).
       vcycle(op, res, da, scratch, opt, {}, restricted);
