@@ -100,6 +100,8 @@ struct CapsuleConfig {
   KernelType spread_kernel = KernelType::cosine;
   KernelType interp_kernel = KernelType::hat;
   bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
+  // staggered only: the kernels' divergence-free forms (ibm::DivergenceFree), one cell wider
+  bool divergence_free = true;
   bool operator==(const CapsuleConfig&) const = default;
 };
 

@@ -117,6 +117,7 @@ CapsuleConfig parse_capsule(TableReader r) {
   r.read("spread_kernel", c.spread_kernel, detail::kKernelTypes);
   r.read("interp_kernel", c.interp_kernel, detail::kKernelTypes);
   r.read("staggered", c.staggered);
+  r.read("divergence_free", c.divergence_free);
   r.finish();
   return c;
 }

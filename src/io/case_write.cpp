@@ -95,6 +95,7 @@ std::string to_toml(const CaseConfig& c) {
     line("spread_kernel", toml_string(to_string(cap.spread_kernel)));
     line("interp_kernel", toml_string(to_string(cap.interp_kernel)));
     line("staggered", b(cap.staggered));
+    line("divergence_free", b(cap.divergence_free));
   }
 
   out += "\n[time]\n";

@@ -41,8 +41,8 @@ double mirror_error(const Eigen::Matrix3Xd& x, const std::vector<Eigen::Index>& 
 // An unstressed capsule (the reference sphere) in fluid at rest: its forces vanish to
 // round-off, so nothing may move.
 TEST(Coupling, UnstressedCapsuleAtRestStaysAtRest) {
-  // (dx = 1/16: at dx = 1/8 the cosine stencil of the sphere's equator reaches the walls.)
-  SeedRun r{.max_level = 5, .ellipsoid = false};
+  // (radius 0.75, dx = 1/16: the divergence-free cosine stencil reaches 3 cells.)
+  SeedRun r{.max_level = 5, .radius = 0.75, .ellipsoid = false};
   auto s = test::seed_setup(r);
   const Eigen::Matrix3Xd x0 = s.coupling->capsule(0).x;
   double worst_u = 0.0;
@@ -63,7 +63,7 @@ TEST(Coupling, UnstressedCapsuleAtRestStaysAtRest) {
 // smoothed normal point forces, not an exact discrete gradient, so the IBM leaves small
 // spurious currents; they must stay small and must not move the capsule.
 TEST(Coupling, PrestressedCapsuleAtRestBarelyMoves) {
-  SeedRun r{.max_level = 5, .ellipsoid = false};
+  SeedRun r{.max_level = 5, .radius = 0.75, .ellipsoid = false};
   auto s = test::seed_setup(r);
   Capsule& c = s.coupling->capsule(0);
   c.x = membrane::inflate(c.model.mesh().nodes, 1.02, Eigen::Vector3d::Zero());
@@ -81,8 +81,9 @@ TEST(Coupling, PrestressedCapsuleAtRestBarelyMoves) {
               fmax, worst_u, test::max_velocity(*s.ns), membrane::max_node_distance(c.x, x0), d.centroid.norm(),
               (d.volume - d0.volume) / d0.volume);
   // Scales: the isotropic Skalak tension T = Gs [l^2 - 1 + C l^2 (l^4 - 1)] = 2.52 at
-  // l = 1.02, velocity scale T / mu = 2.52; measured max |u| = 0.032 (1.3 % of it), node
-  // displacement 1.3e-3 (0.02 dx), volume leak 0.12 % over t = 0.05.
+  // l = 1.02, velocity scale T / mu = 2.52; measured (radius 0.75, divergence-free kernels)
+  // max |u| = 0.026 (1 % of it), node displacement 9.1e-4 (0.015 dx), volume leak 0.10 %
+  // over t = 0.05.
   const double l2 = 1.02 * 1.02, tension = shear_modulus(r.Ca, r.Re) * (l2 - 1 + l2 * (l2 * l2 - 1));
   EXPECT_LT(worst_u, 0.02 * tension * r.Re);
   EXPECT_LT(membrane::max_node_distance(c.x, x0), 0.05 / 16);
@@ -294,7 +295,7 @@ TEST(Coupling, AdaptiveRelaxationMatchesUniform) {
 // Steps far above the membrane stability scale make the explicit coupling blow up; the run
 // stops with the step, the time and the likely cause, and the positions of the last good step.
 TEST(Coupling, BlowUpIsReportedWithItsLikelyCause) {
-  SeedRun r{.max_level = 4, .dt = 2.5e-2, .mesh_level = 3};
+  SeedRun r{.max_level = 4, .dt = 2.5e-2, .radius = 0.6, .mesh_level = 3};
   auto s = test::seed_setup(r);
   Eigen::Matrix3Xd last_good = s.coupling->capsule(0).x;
   std::string message;
