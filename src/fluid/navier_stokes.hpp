@@ -45,6 +45,10 @@ struct FlowOptions {
   // Viscosity by Crank-Nicolson (second order in time) instead of backward Euler (first
   // order, L-stable: Basilisk's choice and the default).
   bool crank_nicolson = false;
+  // The viscous solve sees u^n + dt g with g from this step's body force (and the last
+  // pressure) instead of the last step's (Basilisk's lag): a force that changes every step
+  // (immersed membranes) then drives u^(n+1) without a one-step delay (issue 17).
+  bool current_force_in_viscous = false;
   std::array<SideFlow<D>, 2 * D> boundaries{};
   // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
   // max |div uf| dt <= tolerance (the relative volume change of a cell in one step), the
@@ -146,7 +150,10 @@ class NavierStokes {
   void sync_velocity();
   int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);
-  void centred_gradient(double dt);
+  // g = cell mean of alpha (force - grad p); u += dt g unless only_g.
+  void centred_gradient(double dt, bool only_g = false);
+  void evaluate_force();
+  void shift_by_g(int d, double s);  // u_d += s g_d on the leaves
   MultigridStats variable_viscous_solve(int d, double dt, double theta);
   template <class Body>
   void with_inverse_density(Body&& body) const;

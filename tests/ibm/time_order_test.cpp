@@ -24,6 +24,7 @@ using test::SeedRun;
 struct OrderRun {
   double Re = 1.0;
   bool crank_nicolson = false;
+  bool current_force = false;
   NodeScheme scheme = NodeScheme::ab2;
   double t_end = 0.016;
 };
@@ -31,7 +32,7 @@ struct OrderRun {
 Eigen::Matrix3Xd final_positions(const OrderRun& o, double dt) {
   const SeedRun r{.max_level = 4, .dt = dt, .Re = o.Re, .mesh_level = 3, .tolerance = 1e-10,
                   .adapt = {.enabled = false}, .kernels = {.spread = KernelKind::cosine, .interpolate = KernelKind::cosine},
-                  .crank_nicolson = o.crank_nicolson};
+                  .crank_nicolson = o.crank_nicolson, .current_force_in_viscous = o.current_force};
   auto s = test::seed_setup(r);
   s.coupling->set_node_scheme(o.scheme);
   const int steps = static_cast<int>(std::lround(o.t_end / dt));
