@@ -85,22 +85,30 @@ int CapsuleCoupling::add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd
   return num_capsules() - 1;
 }
 
-double CapsuleCoupling::membrane_time_scale() const {
+double CapsuleCoupling::stability_limit() const {
   const auto& o = ns_.options();
   const double mu = o.viscosity > 0.0 ? o.viscosity : 1.0 / o.Re;
   const double dx = ns_.tree().cell_size(ns_.tree().max_level());
-  double gs = 0.0;
-  for (const Capsule& c : capsules_) gs = std::max(gs, std::visit([](const auto& l) { return l.gs; }, c.model.law()));
-  return gs > 0.0 ? mu * dx / gs : 0.0;
+  double g = 0.0;  // the stiffest capsule's effective modulus
+  for (const Capsule& c : capsules_)
+    g = std::max(g, std::visit(
+                        [](const auto& law) {
+                          if constexpr (requires { law.c; }) return law.gs * std::max(1.0, (1.0 + 2.0 * law.c) / 3.0);
+                          else return law.gs;
+                        },
+                        c.model.law()));
+  if (!(g > 0.0)) return 0.0;
+  return std::min(kInertialLimit * std::sqrt(o.density * dx * dx * dx / g), kViscousLimit * mu * dx / g);
 }
 
 void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) const {
   const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
   if (!unstable) throw std::runtime_error(where);
   throw std::runtime_error(fmt::format(
-      "{}. Likely cause: dt = {:.3g} above the membrane stability limit ~ Ca dx = mu dx / Gs = {:.3g} (the "
-      "coupling is explicit), or a capsule pressed against a wall",
-      where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, membrane_time_scale()));
+      "{}. Likely cause: dt = {:.3g} above the membrane stability limit of the explicit coupling, measured "
+      "{:.3g} here (min(0.58 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs); time.cfl > 0 chooses dt below it), or a "
+      "capsule pressed against a wall",
+      where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, stability_limit()));
 }
 
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
