@@ -106,7 +106,7 @@ void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) con
   if (!unstable) throw std::runtime_error(where);
   throw std::runtime_error(fmt::format(
       "{}. Likely cause: dt = {:.3g} above the membrane stability limit of the explicit coupling, measured "
-      "{:.3g} here (min(0.58 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs); time.cfl > 0 chooses dt below it), or a "
+      "{:.3g} here (min(0.53 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs); time.cfl > 0 chooses dt below it), or a "
       "capsule pressed against a wall",
       where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, stability_limit()));
 }

@@ -158,11 +158,11 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // Re 0.01-10, Ca 0.01-1, dx = 1/8 and 1/16 and both laws, by
   //   dt_lim = min(kInertialLimit sqrt(rho dx^3 / G), kViscousLimit mu dx / G),
   // with G = Gs (Skalak: Gs max(1, (1 + 2C)/3), its area modulus relative to C = 1, the
-  // measured case), i.e. in the seed's units min(0.58 sqrt(Ca Re dx^3), 0.42 Ca dx): the
+  // measured case), i.e. in the seed's units min(0.53 sqrt(Ca Re dx^3), 0.42 Ca dx): the
   // limit depends on Re dx / Ca, and the Stokes limit (small Re dx / Ca) is the stricter.
   // Smallest over the capsules; 0 without capsules.
   [[nodiscard]] double stability_limit() const;
-  static constexpr double kInertialLimit = 0.58, kViscousLimit = 0.42;
+  static constexpr double kInertialLimit = 0.53, kViscousLimit = 0.42;
   // The fraction of stability_limit() that a solver-chosen dt uses (time.cfl > 0): the
   // measured limits hold for 150 steps; long runs and strong deformations need a margin.
   static constexpr double kSafety = 0.5;
