@@ -120,6 +120,12 @@ TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
               u[0] * ns.time(), u[1] * ns.time(), u[2] * ns.time(), error);
   EXPECT_GT(cc.capsule(0).x.row(0).maxCoeff(), 1.0);  // crossed x_hi
   EXPECT_LT(error, 1e-12);
+  // Its volume, with the default (divergence-free) kernels, to round-off.
+  const auto& mesh = cc.capsule(0).model.mesh();
+  const double v0 = membrane::enclosed_volume(mesh, x0);
+  const double v = membrane::enclosed_volume(mesh, cc.capsule(0).x);
+  std::printf("uniform flow: volume_rel %.1e\n", (v - v0) / v0);
+  EXPECT_LT(std::abs(v - v0) / v0, 1e-13);
 }
 
 // A capsule in a steady cellular flow, u = (sin(pi x) cos(pi y), -cos(pi x) sin(pi y), 0),
