@@ -110,6 +110,14 @@ StepStats NavierStokes<D>::step() {
   const double dt = stable_dt();
   // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
   boundary_time_ = time_;
+  carrying_ = options_.carry_faces && faces_current_;
+  if (carrying_) {
+    carried_faces_ = uf_;
+    for (int d = 0; d < D; ++d) {
+      const std::span<const double> u = tree_.values(u_[d]);
+      start_velocity_[d].assign(u.begin(), u.end());
+    }
+  }
   if (properties_) update_properties();
   if (!options_.stokes) prediction_and_advection(dt, stats);
   boundary_time_ = time_ + dt;
@@ -203,6 +211,15 @@ void NavierStokes<D>::acceleration(double dt) {
   CAPSFLOW_ASSERT(std::ranges::all_of(force_, [](const auto& f) { return std::ranges::all_of(f, [](double v) { return std::isfinite(v); }); }),
                   "NavierStokes: the body force is not finite on every face");
   face_average_of_velocity(uf_);
+  if (carrying_) {  // uf = carried + A(u' - u^n), u' the velocity after viscosity
+    const double t_new = boundary_time_;
+    boundary_time_ = time_;  // the start velocity's walls
+    for (int d = 0; d < D; ++d) tree_.sync(start_velocity_[d], conditions_.velocity[d]);
+    boundary_time_ = t_new;
+    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>&) {
+      uf_[d][hi] += carried_faces_[d][hi] - 0.5 * (start_velocity_[d][lo] + start_velocity_[d][hi]);
+    });
+  }
   with_inverse_density([&](auto alpha, auto) {
     for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
       // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the

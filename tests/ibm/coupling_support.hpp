@@ -28,6 +28,7 @@ struct SeedRun {
   KernelChoice kernels{};
   bool crank_nicolson = false;  // viscous scheme (FlowOptions)
   bool current_force_in_viscous = false;  // FlowOptions
+  bool carry_faces = false;               // FlowOptions
 };
 
 struct SeedSetup {
@@ -51,6 +52,7 @@ inline fluid::FlowOptions<3> seed_flow(const SeedRun& r) {
   o.viscous.tolerance = r.tolerance;
   o.crank_nicolson = r.crank_nicolson;
   o.current_force_in_viscous = r.current_force_in_viscous;
+  o.carry_faces = r.carry_faces;
   return o;
 }
 
