@@ -37,6 +37,9 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   fluid::FlowOptions<D> o;
   o.Re = c.fluid.Re;
   o.stokes = c.fluid.stokes;
+  o.crank_nicolson = c.fluid.crank_nicolson;
+  o.carry_faces = c.fluid.carry_faces;
+  o.current_force_in_viscous = c.fluid.carry_faces;
   o.dt = c.time.cfl > 0.0 && c.time.dt_max > 0.0 ? c.time.dt_max : c.time.dt;
   // With capsules and cfl > 0 the solver chooses dt (the time loop caps it by the coupling's
   // stability limit): time.dt does not cap it, only dt_max does.

@@ -73,6 +73,8 @@ void parse_boundary(TableReader r, const DomainConfig& domain, int dim, FluidCon
 void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig& f) {
   r.read("Re", f.Re);
   r.read("stokes", f.stokes);
+  r.read("crank_nicolson", f.crank_nicolson);
+  r.read("carry_faces", f.carry_faces);
   r.read("density_ratio", f.density_ratio);
   r.read("viscosity_ratio", f.viscosity_ratio);
   const toml::table* mg = r.table("multigrid");

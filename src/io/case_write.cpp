@@ -60,6 +60,8 @@ std::string to_toml(const CaseConfig& c) {
   out += "\n[fluid]\n";
   line("Re", toml_number(c.fluid.Re));
   line("stokes", b(c.fluid.stokes));
+  line("crank_nicolson", b(c.fluid.crank_nicolson));
+  line("carry_faces", b(c.fluid.carry_faces));
   line("density_ratio", toml_number(c.fluid.density_ratio));
   line("viscosity_ratio", toml_number(c.fluid.viscosity_ratio));
   out += "\n[fluid.multigrid]\n";
