@@ -27,8 +27,9 @@
 // drift of the capsule in shear falls from -0.18% to -0.045% at strain 2 (docs/numerics.md).
 //
 // V^n is interpolated from u(t + dt) at X(t). On the relaxing capsule at Re = 1 all three
-// node schemes measured first order in time (ibm_long_tests TimeOrder; docs/numerics.md):
-// the flow step's treatment of a changing force limits the order. The midpoint scheme was
+// node schemes measured first order in time (ibm_long_tests TimeOrder; docs/numerics.md)
+// with the flow step's defaults; the midpoint scheme with Crank-Nicolson and the carried
+// faces (fluid::FlowOptions::carry_faces) is second order (ibm_tests TimeOrder). The midpoint scheme was
 // 4-6 times more accurate than Euler, AB2 half as accurate (and AB2's stability interval
 // is half of Euler's); Euler stays the default until the midpoint's stability is measured.
 //
@@ -93,7 +94,8 @@ struct StageTimes {
 // How stage 5 moves the nodes.
 // midpoint: forces at X* = X + (dt/2) V^(n-1), X += dt (J(X*) u^n + J(X*) u^(n+1)) / 2, one
 // flow solve per step (Peskin 2002 section 6, Griffith & Peskin 2005); second order with
-// Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2.
+// Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2, and the
+// projected faces carried between steps (measured, docs/numerics.md).
 enum class NodeScheme : unsigned char { euler, ab2, midpoint };
 
 struct [[nodiscard]] CouplingStep {
