@@ -95,7 +95,8 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
     reference_area_.push_back(membrane::surface_area(mesh, mesh.nodes));
     reference_volume_.push_back(membrane::enclosed_volume(mesh, mesh.nodes));
     coupling_->add_capsule(membrane::MembraneModel(std::move(mesh), law), std::move(x),
-                           {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel), .staggered = k.staggered});
+                           {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel), .staggered = k.staggered,
+                            .divergence_free = k.divergence_free});
   }
 }
 

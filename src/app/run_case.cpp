@@ -40,7 +40,13 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   fluid::FlowOptions<D> o;
   o.Re = c.fluid.Re;
   o.stokes = c.fluid.stokes;
+  o.crank_nicolson = c.fluid.crank_nicolson;
+  o.carry_faces = c.fluid.carry_faces;
+  o.current_force_in_viscous = c.fluid.carry_faces;
   o.dt = c.time.cfl > 0.0 && c.time.dt_max > 0.0 ? c.time.dt_max : c.time.dt;
+  // With capsules and cfl > 0 the solver chooses dt (the time loop caps it by the coupling's
+  // stability limit): time.dt does not cap it, only dt_max does.
+  if (c.time.cfl > 0.0 && c.time.dt_max == 0.0 && !c.capsules.empty()) o.dt = c.time.t_end;
   o.cfl = c.time.cfl;
   for (int s = 0; s < 2 * D; ++s) {
     const io::BoundaryConfig& b = c.fluid.boundary[s];
@@ -129,8 +135,12 @@ class FlowRun {
     const auto start = std::chrono::steady_clock::now();
     const long first_step = step;  // a restart times only its own steps
     const double t_end = c.time.t_end;
+    // cfl > 0 with capsules: dt at most kSafety of the coupling's measured stability limit.
+    const double membrane_cap = capsules_ && c.time.cfl > 0.0
+                                    ? ibm::CapsuleCoupling::kSafety * capsules_->coupling().stability_limit()
+                                    : std::numeric_limits<double>::infinity();
     while (ns_.time() < t_end * (1 - 1e-12)) {
-      ns_.limit_dt(t_end - ns_.time());
+      ns_.limit_dt(std::min(t_end - ns_.time(), membrane_cap));
       fluid::StepStats st;
       if (capsules_) {
         try {

@@ -100,9 +100,9 @@ void NavierStokes<D>::update_properties() {
 
 template <int D>
 MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double theta) {
-  // rho (u - u*)/dt = theta div(mu grad u) + (1 - theta) div(mu grad u*) + T, divided by
+  // rho (u - u*)/dt = theta div(mu grad u) + (1 - theta) div(mu grad u^n) + T, divided by
   // theta so that the operator's face coefficients are mu_f itself:
-  //   div(mu grad u) - rho/(theta dt) u = -rho/(theta dt) u* - (1-theta)/theta div(mu grad u*) - T/theta.
+  //   div(mu grad u) - rho/(theta dt) u = -rho/(theta dt) u* - (1-theta)/theta div(mu grad u^n) - T/theta.
   std::span<double> u = tree_.values(u_[d]);
   const std::span<const double> rho = tree_.values(rho_field_);
   const std::vector<double>& transpose = transpose_[d];
@@ -112,12 +112,14 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   });
   // The multigrid relaxes parents too: they take the volume mean of their children's.
   for (int l = tree_.depth() - 1; l >= 0; --l) tree_.restrict_level(l, lambda_);
-  if (theta < 1.0) {  // explicit part at u*, walls at t^n
+  if (theta < 1.0) {  // explicit part at u^n (not u*: shift_by_g), walls at t^n
     const double t_new = boundary_time_;
     boundary_time_ = time_;
     EllipticOperator<D, FaceArray<D>> explicit_part(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]);
+    shift_by_g(d, -dt);  // u^n
     tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
     explicit_part.apply_leaves(u, div_);
+    shift_by_g(d, dt);
     const double w = (1.0 - theta) / theta;
     tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
     boundary_time_ = t_new;

@@ -111,9 +111,21 @@ StepStats NavierStokes<D>::step() {
   const double dt = stable_dt();
   // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
   boundary_time_ = time_;
+  carrying_ = options_.carry_faces && faces_current_;
+  if (carrying_) {
+    carried_faces_ = uf_;
+    for (int d = 0; d < D; ++d) {
+      const std::span<const double> u = tree_.values(u_[d]);
+      start_velocity_[d].assign(u.begin(), u.end());
+    }
+  }
   if (properties_) update_properties();
   if (!options_.stokes) prediction_and_advection(dt, stats);
   boundary_time_ = time_ + dt;
+  if (options_.current_force_in_viscous && face_force_) {
+    evaluate_force();
+    centred_gradient(dt, /*only_g=*/true);
+  }
   viscosity(dt, stats);
   acceleration(dt);
   projection(dt, stats);
@@ -144,12 +156,14 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
     }
     std::span<double> u = tree_.values(u_[d]);
     tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * u[c]; });
-    if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u*), walls at t^n
+    if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u^n), walls at t^n
       const double t_new = boundary_time_;
       boundary_time_ = time_;
       EllipticOperator<D> explicit_part(tree_, {(1.0 - theta) * mu_}, {}, conditions_.velocity[d]);
+      shift_by_g(d, -dt);  // u^n
       tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
       explicit_part.apply_leaves(u, div_);
+      shift_by_g(d, dt);
       tree_.for_each_leaf([&](Index c) { rhs_[c] -= div_[c]; });
       boundary_time_ = t_new;
     }
@@ -163,6 +177,17 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
   correct(-1.0);
 }
 
+// Component d of u is u* = u^n + dt g during the viscous solve; shift_by_g(d, -dt) makes it
+// u^n and shift_by_g(d, dt) u* again. Crank-Nicolson's explicit half must act on u^n: on u*
+// it adds dt (1 - theta) div(mu grad g) to every step, a first-order error wherever a body
+// force or pressure gradient varies (the coupled IBM step stayed first order, issue 17).
+template <int D>
+void NavierStokes<D>::shift_by_g(int d, double s) {
+  std::span<double> u = tree_.values(u_[d]);
+  const std::span<const double> g = tree_.values(g_[d]);
+  tree_.for_each_leaf([&](Index c) { u[c] += s * g[c]; });
+}
+
 template <int D>
 void NavierStokes<D>::face_average_of_velocity(FaceField<D>& uf) {
   sync_velocity();
@@ -173,15 +198,29 @@ void NavierStokes<D>::face_average_of_velocity(FaceField<D>& uf) {
 }
 
 template <int D>
-void NavierStokes<D>::acceleration(double dt) {
+void NavierStokes<D>::evaluate_force() {
   for (auto& f : force_) std::fill(f.begin(), f.end(), 0.0);
   if (face_force_) face_force_(tree_, force_);
+}
+
+template <int D>
+void NavierStokes<D>::acceleration(double dt) {
+  evaluate_force();
   // The force enters the face velocities unchecked: a NaN would surface as a NaN pressure
   // after the projection, far from its cause. (The IBM coupling checks its nodal forces.)
   CAPSFLOW_ASSERT(spans_cells<D>(force_, tree_), "NavierStokes: the face force callback resized the force field");
   CAPSFLOW_ASSERT(std::ranges::all_of(force_, [](const auto& f) { return std::ranges::all_of(f, [](double v) { return std::isfinite(v); }); }),
                   "NavierStokes: the body force is not finite on every face");
   face_average_of_velocity(uf_);
+  if (carrying_) {  // uf = carried + A(u' - u^n), u' the velocity after viscosity
+    const double t_new = boundary_time_;
+    boundary_time_ = time_;  // the start velocity's walls
+    for (int d = 0; d < D; ++d) tree_.sync(start_velocity_[d], conditions_.velocity[d]);
+    boundary_time_ = t_new;
+    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>&) {
+      uf_[d][hi] += carried_faces_[d][hi] - 0.5 * (start_velocity_[d][lo] + start_velocity_[d][hi]);
+    });
+  }
   with_inverse_density([&](auto alpha, auto) {
     for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
       // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
@@ -231,7 +270,7 @@ void NavierStokes<D>::projection(double dt, StepStats& stats) {
 }
 
 template <int D>
-void NavierStokes<D>::centred_gradient(double dt) {
+void NavierStokes<D>::centred_gradient(double dt, bool only_g) {
   // g = cell mean of the face acceleration a - alpha grad p, so that u += dt g; a face
   // force that is a discrete gradient cancels with the pressure exactly.
   const std::span<const double> p = tree_.values(p_);
@@ -247,7 +286,7 @@ void NavierStokes<D>::centred_gradient(double dt) {
     for (int d = 0; d < D; ++d) {
       const double g = 0.5 * (gf[d][c] + gf[d][row[2 * d + 1]]);
       tree_.values(g_[d])[c] = g;
-      tree_.values(u_[d])[c] += dt * g;
+      if (!only_g) tree_.values(u_[d])[c] += dt * g;
     }
   });
   // Distributed: a ghost's faces may lie past the ghost layer; its owner's values instead.

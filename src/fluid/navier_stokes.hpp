@@ -45,6 +45,17 @@ struct FlowOptions {
   // Viscosity by Crank-Nicolson (second order in time) instead of backward Euler (first
   // order, L-stable: Basilisk's choice and the default).
   bool crank_nicolson = false;
+  // The viscous solve sees u^n + dt g with g from this step's body force (and the last
+  // pressure) instead of the last step's (Basilisk's lag): a force that changes every step
+  // (immersed membranes) then drives u^(n+1) without a one-step delay (issue 17).
+  bool current_force_in_viscous = false;
+  // The acceleration stage starts from the last projected face velocity plus the face mean
+  // of this step's change of the cell velocity (advection, viscosity), instead of the face
+  // mean of the cell velocity: the difference of the two, dt (A C - I) of the face
+  // acceleration, is then not applied one step late. With an immersed-boundary force (grid
+  // scale) that lag made the coupled step first order in time (issue 17). Falls back to the
+  // face mean after an adaptation or a restart (the faces are not carried there).
+  bool carry_faces = false;
   std::array<SideFlow<D>, 2 * D> boundaries{};
   // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
   // max |div uf| dt <= tolerance (the relative volume change of a cell in one step), the
@@ -146,7 +157,10 @@ class NavierStokes {
   void sync_velocity();
   int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);
-  void centred_gradient(double dt);
+  // g = cell mean of alpha (force - grad p); u += dt g unless only_g.
+  void centred_gradient(double dt, bool only_g = false);
+  void evaluate_force();
+  void shift_by_g(int d, double s);  // u_d += s g_d on the leaves
   MultigridStats variable_viscous_solve(int d, double dt, double theta);
   template <class Body>
   void with_inverse_density(Body&& body) const;
@@ -162,6 +176,10 @@ class NavierStokes {
   std::array<tree::FieldId, D> u_{}, g_{};
   tree::FieldId p_ = 0, pf_ = 0;
   FaceField<D> uf_, force_, scratch_faces_;
+  // carry_faces: the projected faces and the cell velocity at the start of the step.
+  FaceField<D> carried_faces_;
+  std::array<std::vector<double>, D> start_velocity_;
+  bool carrying_ = false;
   std::array<std::vector<double>, D> slope_;  // du_c/dx_d for the component being advected
   std::array<std::vector<double>, D> source_;  // advection sources g + nu lap u
   std::vector<double> div_, rhs_;

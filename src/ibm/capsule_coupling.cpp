@@ -32,22 +32,24 @@ bool all_finite(const Eigen::Matrix3Xd& m, Eigen::Index& first_bad) {
   return true;
 }
 
-template <int W>
-bool patch_exists(const tree::Tree<3>& t, int level, const std::array<std::int32_t, 3>& first) {
-  Index cells[W * W * W];
-  return find_patch<W>(t, level, first, cells) < 0;
-}
-
 // On cell centres, or (staggered) on the faces of each component.
-bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x, bool staggered) {
-  return with_kernel(kind, [&]<Kernel K>(K) {
+bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x, bool staggered,
+                         bool divergence_free) {
+  return with_face_kernel(kind, staggered && divergence_free, [&]<Kernel K>(K) {
     const int level = t.max_level();
     const double h = t.cell_size(level);
-    for (Eigen::Index i = 0; i < x.cols(); ++i)
-      for (int axis = staggered ? 0 : -1; axis < (staggered ? 3 : 0); ++axis) {
-        const auto st = node_stencil<K>(t.options(), h, &x(0, i), axis);
-        if (!patch_exists<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first})) return false;
+    Index cells[kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth];
+    for (Eigen::Index i = 0; i < x.cols(); ++i) {
+      if (staggered) {
+        for (int axis = 0; axis < 3; ++axis) {
+          const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), axis);
+          if (find_box(t, level, st.first, st.n, cells) >= 0) return false;
+        }
+      } else if constexpr (!kIsDivergenceFree<K>) {
+        const auto st = node_stencil<K>(t.options(), h, &x(0, i));
+        if (find_patch<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first}, cells) >= 0) return false;
       }
+    }
     return true;
   });
 }
@@ -83,22 +85,30 @@ int CapsuleCoupling::add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd
   return num_capsules() - 1;
 }
 
-double CapsuleCoupling::membrane_time_scale() const {
+double CapsuleCoupling::stability_limit() const {
   const auto& o = ns_.options();
   const double mu = o.viscosity > 0.0 ? o.viscosity : 1.0 / o.Re;
   const double dx = ns_.tree().cell_size(ns_.tree().max_level());
-  double gs = 0.0;
-  for (const Capsule& c : capsules_) gs = std::max(gs, std::visit([](const auto& l) { return l.gs; }, c.model.law()));
-  return gs > 0.0 ? mu * dx / gs : 0.0;
+  double g = 0.0;  // the stiffest capsule's effective modulus
+  for (const Capsule& c : capsules_)
+    g = std::max(g, std::visit(
+                        [](const auto& law) {
+                          if constexpr (requires { law.c; }) return law.gs * std::max(1.0, (1.0 + 2.0 * law.c) / 3.0);
+                          else return law.gs;
+                        },
+                        c.model.law()));
+  if (!(g > 0.0)) return 0.0;
+  return std::min(kInertialLimit * std::sqrt(o.density * dx * dx * dx / g), kViscousLimit * mu * dx / g);
 }
 
 void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) const {
   const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
   if (!unstable) throw std::runtime_error(where);
   throw std::runtime_error(fmt::format(
-      "{}. Likely cause: dt = {:.3g} above the membrane stability limit ~ Ca dx = mu dx / Gs = {:.3g} (the "
-      "coupling is explicit), or a capsule pressed against a wall",
-      where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, membrane_time_scale()));
+      "{}. Likely cause: dt = {:.3g} above the membrane stability limit of the explicit coupling, measured "
+      "{:.3g} here (min(0.53 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs); time.cfl > 0 chooses dt below it), or a "
+      "capsule pressed against a wall",
+      where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, stability_limit()));
 }
 
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
@@ -110,14 +120,16 @@ int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
 void CapsuleCoupling::update_region() {
   const tree::Tree<3>& t = ns_.tree();
   for (Capsule& c : capsules_)
-    c.tags.build(t.options(), t.max_level(), band_cells(c.kernels.spread, c.kernels.interpolate, margin_), c.x);
+    c.tags.build(t.options(), t.max_level(), band_cells(c.kernels.spread, c.kernels.interpolate, margin_,
+                                                         c.kernels.staggered && c.kernels.divergence_free), c.x);
 }
 
 bool CapsuleCoupling::stencils_ready() const {
   const tree::Tree<3>& t = ns_.tree();
   return std::all_of(capsules_.begin(), capsules_.end(), [&](const Capsule& c) {
-    return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered) &&
-           node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered);
+    const bool df = c.kernels.divergence_free;
+    return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered, df) &&
+           node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered, df);
   });
 }
 
@@ -163,7 +175,7 @@ void CapsuleCoupling::spread_forces(int step) {
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
-      if (c.kernels.staggered) spread_faces(c.kernels.spread, t, at, c.forces, face_force_, workspace_, mode);
+      if (c.kernels.staggered) spread_faces(c.kernels.spread, c.kernels.divergence_free, t, at, c.forces, face_force_, workspace_, mode);
       else spread(c.kernels.spread, t, at, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
@@ -190,7 +202,7 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
     std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
-      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, ns_.face_velocity(), at, c.velocity);
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, c.velocity);
       else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
@@ -243,7 +255,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
     c.x_mid = c.x;
     if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
     try {
-      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, t, *faces, c.x_mid, c.start_velocity);
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, *faces, c.x_mid, c.start_velocity);
       else interpolate(c.kernels.interpolate, t, u, c.x_mid, c.start_velocity);
     } catch (const StencilError& e) {
       fail(step, fmt::format("capsule {}: {}", k, e.what()), false);

@@ -21,17 +21,20 @@
 // steadily (a capsule in shear: +0.77% at strain 2, dx = a/8). With the same kernel on both
 // stages, face spreading is the adjoint of face interpolation. staggered = false is the
 // seed's scheme (cells, face force = mean of two cells, interpolation of the cell velocity),
-// kept for comparison.
+// kept for comparison. KernelChoice::divergence_free (the default) uses the kernels'
+// divergence-free forms on the faces (kernels.hpp, Bao et al. 2017): the node velocity is
+// then exactly divergence-free as a function of position where uf is discretely, and the
+// drift of the capsule in shear falls from -0.18% to -0.045% at strain 2 (docs/numerics.md).
 //
 // V^n is interpolated from u(t + dt) at X(t). On the relaxing capsule at Re = 1 all three
-// node schemes measured first order in time (ibm_long_tests TimeOrder; docs/numerics.md):
-// the flow step's treatment of a changing force limits the order. The midpoint scheme was
+// node schemes measured first order in time (ibm_long_tests TimeOrder; docs/numerics.md)
+// with the flow step's defaults; the midpoint scheme with Crank-Nicolson and the carried
+// faces (fluid::FlowOptions::carry_faces) is second order (ibm_tests TimeOrder). The midpoint scheme was
 // 4-6 times more accurate than Euler, AB2 half as accurate (and AB2's stability interval
 // is half of Euler's); Euler stays the default until the midpoint's stability is measured.
 //
-// The coupling is explicit, so dt is bounded by the membrane's stiffness: a node's
-// relaxation time on the fluid grid is about mu dx / Gs = Ca dx (below), and steps much
-// longer than that make the membrane oscillate and blow up. Blow-up is detected (non-finite
+// The coupling is explicit, so dt is bounded by the membrane's stiffness (stability_limit(),
+// measured), and steps longer than that make the membrane oscillate and blow up. Blow-up is detected (non-finite
 // forces or velocities, an inverted element, a node leaving the domain) and reported as a
 // std::runtime_error naming the step, the time and the likely cause; the node positions
 // then stay those of the last good step.
@@ -61,6 +64,9 @@ struct KernelChoice {
   KernelKind spread = KernelKind::cosine;   // the seed's delta_c
   KernelKind interpolate = KernelKind::hat;  // the seed's delta_l
   bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
+  // On faces: DivergenceFree<K> of both kernels (kernels.hpp), so that the node velocity is
+  // exactly divergence-free where the projected face velocity is. Ignored on cells.
+  bool divergence_free = true;
 };
 
 struct Capsule {
@@ -88,7 +94,8 @@ struct StageTimes {
 // How stage 5 moves the nodes.
 // midpoint: forces at X* = X + (dt/2) V^(n-1), X += dt (J(X*) u^n + J(X*) u^(n+1)) / 2, one
 // flow solve per step (Peskin 2002 section 6, Griffith & Peskin 2005); second order with
-// Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2.
+// Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2, and the
+// projected faces carried between steps (measured, docs/numerics.md).
 enum class NodeScheme : unsigned char { euler, ab2, midpoint };
 
 struct [[nodiscard]] CouplingStep {
@@ -148,9 +155,19 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   [[nodiscard]] const CellVector& cell_force() const { return force_; }
   // The spread force of the capsules with staggered = true, on faces (zero if none).
   [[nodiscard]] const fluid::FaceField<3>& face_force() const { return face_force_; }
-  // The membrane time scale mu dx / Gs (= Ca dx in the seed's units), smallest over the
-  // capsules: stable steps are a modest multiple of it at most.
-  [[nodiscard]] double membrane_time_scale() const;
+  // The explicit coupling's stability limit, measured (docs/numerics.md, issue 17): the
+  // largest dt at which a relaxing capsule stayed stable for 150 steps fitted, over
+  // Re 0.01-10, Ca 0.01-1, dx = 1/8 and 1/16 and both laws, by
+  //   dt_lim = min(kInertialLimit sqrt(rho dx^3 / G), kViscousLimit mu dx / G),
+  // with G = Gs (Skalak: Gs max(1, (1 + 2C)/3), its area modulus relative to C = 1, the
+  // measured case), i.e. in the seed's units min(0.53 sqrt(Ca Re dx^3), 0.42 Ca dx): the
+  // limit depends on Re dx / Ca, and the Stokes limit (small Re dx / Ca) is the stricter.
+  // Smallest over the capsules; 0 without capsules.
+  [[nodiscard]] double stability_limit() const;
+  static constexpr double kInertialLimit = 0.53, kViscousLimit = 0.42;
+  // The fraction of stability_limit() that a solver-chosen dt uses (time.cfl > 0): the
+  // measured limits hold for 150 steps; long runs and strong deformations need a margin.
+  static constexpr double kSafety = 0.5;
 
  private:
   void compute_forces(int step);

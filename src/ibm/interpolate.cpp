@@ -63,7 +63,7 @@ void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double
 template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
                        Eigen::Matrix3Xd& v) {
-  constexpr int W = K::kSupport, W3 = W * W * W;
+  constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
   for (const auto& ud : uf)
     if (ud.size() != static_cast<std::size_t>(t.num_cells()))
       throw std::invalid_argument(
@@ -74,40 +74,34 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
   const double h = t.cell_size(level);
   const auto& options = t.options();
   Eigen::Index bad = n;
-  int bad_axis = 0;
 
 #pragma omp parallel for schedule(static) reduction(min : bad) if (n >= kParallelNodes)
   for (Eigen::Index i = 0; i < n; ++i) {
     for (int d = 0; d < 3; ++d) {
-      const auto st = node_stencil<K>(options, h, &x(0, i), d);
-      Index c[W3];
-      if (find_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c) >= 0) {
+      const BoxStencil st = face_stencil<K>(options, h, &x(0, i), d);
+      Index c[kMaxCells];
+      if (find_box(t, level, st.first, st.n, c) >= 0) {
         bad = std::min(bad, i);
         break;
       }
       const double* u = uf[d].data();
       double sum = 0.0;
-      for (int kz = 0, s = 0; kz < W; ++kz)
-        for (int jy = 0; jy < W; ++jy) {
-          const double wyz = st[2].w[kz] * st[1].w[jy];
-          for (int ix = 0; ix < W; ++ix, ++s) sum += u[c[s]] * (wyz * st[0].w[ix]);
+      for (int kz = 0, s = 0; kz < st.n[2]; ++kz)
+        for (int jy = 0; jy < st.n[1]; ++jy) {
+          const double wyz = st.w[2][kz] * st.w[1][jy];
+          double row = 0.0;
+          for (int ix = 0; ix < st.n[0]; ++ix, ++s) row += u[c[s]] * st.w[0][ix];
+          sum += wyz * row;
         }
       v(d, i) = sum;
     }
   }
   if (bad < n) {
     for (int d = 0; d < 3; ++d) {
-      const auto st = node_stencil<K>(options, h, &x(0, bad), d);
-      Index c[W3];
-      if (find_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c) >= 0) {
-        bad_axis = d;
-        break;
-      }
+      const BoxStencil st = face_stencil<K>(options, h, &x(0, bad), d);
+      Index c[kMaxCells];
+      require_box(t, level, st.first, st.n, c, bad, &x(0, bad), "face interpolation", K::kName);
     }
-    const auto st = node_stencil<K>(options, h, &x(0, bad), bad_axis);
-    Index c[W3];
-    require_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c, bad, &x(0, bad), "face interpolation",
-                     K::kName);
   }
 }
 
@@ -124,5 +118,12 @@ template void interpolate<HatKernel>(const tree::Tree<3>&, const std::array<std:
                                      const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
 template void interpolate<Peskin4Kernel>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
                                          const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+
+template void interpolate_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+template void interpolate_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+template void interpolate_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
 
 }  // namespace capsflow::ibm

@@ -14,6 +14,13 @@
 // not the cell-centred u, discretely divergence-free (to its tolerance), and the cell
 // velocity's non-solenoidal part made closed membranes gain volume steadily in shear.
 // This is the adjoint of spread_faces with the same kernel: sum_X V.F = sum_f uf f dx^3.
+// With a kernel K the interpolant of a discretely divergence-free uf is not divergence-free
+// as a function of X (cosine: max |div V| / max |grad V| = 0.23 on a smooth curl field,
+// tests/ibm/faces_test.cpp); with DivergenceFree<K> (kernels.hpp, the coupling's default)
+// it is, to round-off (1e-9).
+//
+// Face stencils have a width per axis (ibm/stencil.hpp, BoxStencil): K's W along all three,
+// or for DivergenceFree<K> W + 1 along the component's axis and W along the others.
 //
 // Parallel over nodes: each node gathers its own sum, so there is nothing to race on and
 // the result does not depend on the number of threads.
@@ -44,9 +51,11 @@ template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
                        Eigen::Matrix3Xd& v);
 
-inline void interpolate_faces(KernelKind kind, const tree::Tree<3>& t, const fluid::FaceField<3>& uf,
-                              const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
-  with_kernel(kind, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v); });
+// divergence_free: with DivergenceFree<K> (kernels.hpp): V is then exactly divergence-free
+// (as a function of X) wherever uf is discretely.
+inline void interpolate_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
+                              const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v); });
 }
 
 }  // namespace capsflow::ibm

@@ -20,6 +20,10 @@
 //   total torque is conserved only up to sum_X dx m(X) x F(X); it interpolates linear
 //   fields exactly only at those offsets (tests/ibm check both statements);
 //   sum phi^2 = 3/8 for cosine and Peskin at every r (hat: (1-r)^2 + r^2).
+//
+// Each kernel also gives its cumulative integral C(t) = integral of phi from -inf to t (in
+// cells), from which DivergenceFree<K> (below) builds the smoothed kernel phi * box.
+#include <algorithm>
 #include <cmath>
 #include <concepts>
 #include <numbers>
@@ -54,6 +58,10 @@ struct CosineKernel {
     w[2] = 0.25 * (1.0 + sq);
     w[3] = 0.25 * (1.0 - cq);
   }
+  static double cumulative(double t) {
+    const double a = std::min(std::abs(t), 2.0);
+    return 0.5 + std::copysign(0.25 * (a + (2.0 / std::numbers::pi) * std::sin(0.5 * std::numbers::pi * a)), t);
+  }
 };
 
 struct HatKernel {
@@ -62,6 +70,10 @@ struct HatKernel {
   static double weight(double s) {
     const double a = std::abs(s);
     return a < 1.0 ? 1.0 - a : 0.0;
+  }
+  static double cumulative(double t) {
+    const double a = std::min(std::abs(t), 1.0);
+    return 0.5 + std::copysign(a - 0.5 * a * a, t);
   }
 };
 
@@ -74,7 +86,53 @@ struct Peskin4Kernel {
     if (a < 2.0) return 0.125 * (5.0 - 2.0 * a - std::sqrt(std::max(0.0, -7.0 + 12.0 * a - 4.0 * a * a)));
     return 0.0;
   }
+  // Both square roots are sqrt(2 - v^2) (v = 2a - 1, then 2a - 3), whose integral over v is
+  // F(v) = (v/2) sqrt(2 - v^2) + asin(v / sqrt 2).
+  static double cumulative(double t) {
+    const double a = std::min(std::abs(t), 2.0);
+    const auto f = [](double v) { return 0.5 * v * std::sqrt(std::max(0.0, 2.0 - v * v)) + std::asin(v / std::numbers::sqrt2); };
+    const double f1 = f(-1.0);
+    double p = 0.0;  // integral of phi over [0, a]
+    if (a <= 1.0) {
+      p = 0.125 * (3.0 * a - a * a + 0.5 * (f(2.0 * a - 1.0) - f1));
+    } else {
+      p = 0.125 * (2.5 + 0.25 * std::numbers::pi) +
+          0.125 * (5.0 * (a - 1.0) - (a * a - 1.0) - 0.5 * (f(2.0 * a - 3.0) - f1));
+    }
+    return 0.5 + std::copysign(p, t);
+  }
 };
+
+// The divergence-free form of kernel K for staggered (MAC) grids (Bao, Donev, Griffith,
+// McQueen & Peskin 2017, J. Comput. Phys. 347). Component d of a face field is interpolated
+// with K along the two axes normal to d (faces sit at cell centres there) and, along d, with
+// the smoothed kernel
+//   psi(s) = integral of phi over [s - 1/2, s + 1/2] = C(s + 1/2) - C(s - 1/2)   (phi * box),
+// whose support is one cell wider. Then d/dX psi(x_f - X) = phi(x_f - X - 1/2) -
+// phi(x_f - X + 1/2), and summation by parts turns the divergence of the interpolated field
+// into the K-interpolation of the discrete divergence:
+//   div_X V(X) = sum_cells (div_h uf)_c phi(sx) phi(sy) phi(sz) / dx,
+// so V is divergence-free wherever uf is (discretely): a closed surface moving with V keeps
+// its volume up to the time integration and the surface's own discretisation. Spreading with
+// the same weights stays its adjoint. kSupport is K's plus 2 (psi needs W + 1 points, padded
+// to an even stencil; the normal axes pad K's weights with a zero on each side: stencil.hpp).
+template <class K>
+concept SmoothableKernel = Kernel<K> && requires(double t) {
+  { K::cumulative(t) } -> std::same_as<double>;
+};
+
+template <SmoothableKernel K>
+struct DivergenceFree {
+  using Base = K;
+  static constexpr int kSupport = K::kSupport + 2;
+  static constexpr std::string_view kName = K::kName;
+  static double weight(double s) { return K::cumulative(s + 0.5) - K::cumulative(s - 0.5); }
+};
+
+template <class K>
+inline constexpr bool kIsDivergenceFree = false;
+template <SmoothableKernel K>
+inline constexpr bool kIsDivergenceFree<DivergenceFree<K>> = true;
 
 // The run-time choice (a case file's kernel keys become this once, at parse time).
 // Adding a kernel: a type above, an enumerator here, a case in with_kernel, and an
@@ -92,8 +150,17 @@ decltype(auto) with_kernel(KernelKind kind, F&& f) {
   throw std::invalid_argument("ibm: unknown kernel kind " + std::to_string(static_cast<int>(kind)));
 }
 
-[[nodiscard]] inline int support_of(KernelKind kind) {
-  return with_kernel(kind, []<Kernel K>(K) { return K::kSupport; });
+// Calls f(DivergenceFree<K>{}) when divergence_free, else f(K{}) (face stencils).
+template <class F>
+decltype(auto) with_face_kernel(KernelKind kind, bool divergence_free, F&& f) {
+  return with_kernel(kind, [&]<Kernel K>(K k) -> decltype(auto) {
+    if (divergence_free) return f(DivergenceFree<K>{});
+    return f(k);
+  });
+}
+
+[[nodiscard]] inline int support_of(KernelKind kind, bool divergence_free = false) {
+  return with_face_kernel(kind, divergence_free, []<Kernel K>(K) { return K::kSupport; });
 }
 
 [[nodiscard]] inline std::string_view name_of(KernelKind kind) {

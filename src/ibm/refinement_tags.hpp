@@ -29,9 +29,11 @@
 
 namespace capsflow::ibm {
 
-// Half the widest kernel support plus the margin, in cells of the max level.
-[[nodiscard]] inline int band_cells(KernelKind spread, KernelKind interpolate, int margin) {
-  const int w = std::max(support_of(spread), support_of(interpolate));
+// Half the widest kernel support plus the margin, in cells of the max level
+// (divergence_free: of the kernels' DivergenceFree forms, one cell wider on each side).
+[[nodiscard]] inline int band_cells(KernelKind spread, KernelKind interpolate, int margin,
+                                    bool divergence_free = false) {
+  const int w = std::max(support_of(spread, divergence_free), support_of(interpolate, divergence_free));
   return w / 2 + margin;
 }
 

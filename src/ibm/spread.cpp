@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <stdexcept>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -31,18 +32,36 @@ void prepare(const tree::Tree<3>& t, Eigen::Index nodes, const Eigen::Matrix3Xd&
   }
 }
 
+// The stencil of node x: on cell centres (face_axis = -1) or on the faces normal to
+// face_axis.
+template <Kernel K>
+BoxStencil stencil_of(const tree::TreeOptions<3>& o, double h, const double* x, int face_axis) {
+  if (face_axis >= 0) return face_stencil<K>(o, h, x, face_axis);
+  if constexpr (kIsDivergenceFree<K>) {
+    throw std::invalid_argument("ibm: a divergence-free kernel exists only on faces");
+  } else {
+    const auto st = node_stencil<K>(o, h, x);
+    BoxStencil b;
+    for (int d = 0; d < 3; ++d) set_axis(b, d, st[d]);
+    return b;
+  }
+}
+
 // Adds the force components [c0, c1) of every node, through the stencils on cell centres
 // (face_axis = -1) or on the faces normal to face_axis, to f[c0..c1).
 template <Kernel K>
 void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
                  SpreadWorkspace& ws, int face_axis, int c0, int c1) {
-  constexpr int W = K::kSupport, W3 = W * W * W;
   const Eigen::Index n = x.cols();
   const int level = t.max_level();
   const double h = t.cell_size(level), inv_volume = 1.0 / (h * h * h);
   const auto& options = t.options();
-  ws.cells.resize(static_cast<std::size_t>(n) * W3);
-  ws.weights.resize(static_cast<std::size_t>(n) * 3 * W);
+  // Every node's stencil has the same widths (those of the kernel and the axis).
+  const std::array<int, 3> widths = n > 0 ? stencil_of<K>(options, h, &x(0, 0), face_axis).n : std::array{1, 1, 1};
+  const int cells_per_node = widths[0] * widths[1] * widths[2];
+  const int weights_per_node = widths[0] + widths[1] + widths[2];
+  ws.cells.resize(static_cast<std::size_t>(n) * cells_per_node);
+  ws.weights.resize(static_cast<std::size_t>(n) * weights_per_node);
   ws.lowest.resize(static_cast<std::size_t>(n));
   ws.highest.resize(static_cast<std::size_t>(n));
   const Index level_begin = t.level(level).active_begin(), level_end = t.level(level).active_end();
@@ -53,17 +72,20 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
   {
 #pragma omp for schedule(static) reduction(min : bad)
     for (Eigen::Index i = 0; i < n; ++i) {
-      const auto st = node_stencil<K>(options, h, &x(0, i), face_axis);
-      double* w = ws.weights.data() + i * 3 * W;
-      for (int d = 0; d < 3; ++d) std::copy(st[d].w.begin(), st[d].w.end(), w + d * W);
-      Index* c = ws.cells.data() + i * W3;
-      if (find_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c) >= 0) {
+      const BoxStencil st = stencil_of<K>(options, h, &x(0, i), face_axis);
+      CAPSFLOW_ASSERT(st.n == widths, "ibm: stencils of one kernel and axis differ in width");
+      double* w = ws.weights.data() + i * weights_per_node;
+      std::copy_n(st.w[0].begin(), widths[0], w);
+      std::copy_n(st.w[1].begin(), widths[1], w + widths[0]);
+      std::copy_n(st.w[2].begin(), widths[2], w + widths[0] + widths[1]);
+      Index* c = ws.cells.data() + i * cells_per_node;
+      if (find_box(t, level, st.first, widths, c) >= 0) {
         bad = std::min(bad, i);
         ws.lowest[i] = 1;  // an empty range: no thread reads this node
         ws.highest[i] = 0;
         continue;
       }
-      const auto [lo, hi] = std::minmax_element(c, c + W3);
+      const auto [lo, hi] = std::minmax_element(c, c + cells_per_node);
       ws.lowest[i] = *lo;
       ws.highest[i] = *hi;
     }
@@ -77,15 +99,17 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
         if (ws.highest[i] < own_lo || ws.lowest[i] >= own_hi) continue;
         double g[3];
         for (int k = c0; k < c1; ++k) g[k] = forces(k, i) * inv_volume;
-        const double* w = ws.weights.data() + i * 3 * W;
-        const Index* c = ws.cells.data() + i * W3;
-        for (int kz = 0, s = 0; kz < W; ++kz)
-          for (int jy = 0; jy < W; ++jy) {
-            const double wyz = w[2 * W + kz] * w[W + jy];
-            for (int ix = 0; ix < W; ++ix, ++s) {
+        const double* wx = ws.weights.data() + i * weights_per_node;
+        const double* wy = wx + widths[0];
+        const double* wz = wy + widths[1];
+        const Index* c = ws.cells.data() + i * cells_per_node;
+        for (int kz = 0, s = 0; kz < widths[2]; ++kz)
+          for (int jy = 0; jy < widths[1]; ++jy) {
+            const double wyz = wz[kz] * wy[jy];
+            for (int ix = 0; ix < widths[0]; ++ix, ++s) {
               const Index cell = c[s];
               if (cell < own_lo || cell >= own_hi) continue;
-              const double wc = wyz * w[ix];
+              const double wc = wyz * wx[ix];
               for (int k = c0; k < c1; ++k) out[k][cell] += g[k] * wc;
             }
           }
@@ -93,10 +117,10 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
     }
   }
   if (bad < n) {  // rebuild the failing node's stencil serially for the message
-    const auto st = node_stencil<K>(options, h, &x(0, bad), face_axis);
-    Index c[W3];
-    require_patch<W>(t, level, {st[0].first, st[1].first, st[2].first}, c, bad, &x(0, bad),
-                     face_axis < 0 ? "spreading" : "face spreading", K::kName);
+    const BoxStencil st = stencil_of<K>(options, h, &x(0, bad), face_axis);
+    std::vector<Index> c(static_cast<std::size_t>(cells_per_node));
+    require_box(t, level, st.first, st.n, c.data(), bad, &x(0, bad), face_axis < 0 ? "spreading" : "face spreading",
+                K::kName);
   }
 }
 
@@ -128,5 +152,12 @@ template void spread_faces<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3
                                       fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
 template void spread_faces<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
                                           fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+
+template void spread_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+template void spread_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+template void spread_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
 
 }  // namespace capsflow::ibm

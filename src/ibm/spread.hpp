@@ -69,10 +69,12 @@ template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
                   fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign);
 
-inline void spread_faces(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
+// divergence_free: with DivergenceFree<K> (kernels.hpp), the adjoint of the divergence-free
+// interpolation.
+inline void spread_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
                          const Eigen::Matrix3Xd& forces, fluid::FaceField<3>& f, SpreadWorkspace& ws,
                          SpreadMode mode = SpreadMode::assign) {
-  with_kernel(kind, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode); });
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode); });
 }
 
 // faces = f (or faces + f with SpreadMode::add) on every fine face; coarse faces: the mean of

@@ -1,6 +1,8 @@
 // Locating stencil cells on the tree, and the error that names a missing one.
 #include "ibm/stencil.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 namespace capsflow::ibm {
@@ -22,21 +24,26 @@ bool is_active_leaf(const tree::Tree<3>& t, int level, Index c) {
 
 }  // namespace
 
-template <int W>
-int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells) {
-  constexpr int k = anchor_depth(W);
-  constexpr int P = W / 2 + 1;  // parents per axis, at most
+int find_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+             Index* cells) {
+  CAPSFLOW_ASSERT(n[0] >= 1 && n[1] >= 1 && n[2] >= 1 && n[0] <= kMaxBoxWidth && n[1] <= kMaxBoxWidth &&
+                      n[2] <= kMaxBoxWidth,
+                  "ibm: find_box: widths outside [1, kMaxBoxWidth]");
+  const int k = anchor_depth(std::max({n[0], n[1], n[2]}));
+  constexpr int P = kMaxBoxWidth / 2 + 1;  // parents per axis, at most
+  constexpr int A = 2;                     // anchors per axis, at most (2^k >= width - 1)
+  const int size = n[0] * n[1] * n[2];
   if (level > t.depth()) return 0;
   const int anchor_level = level - k;
   if (anchor_level < 0) {  // a very coarse tree: search every cell
-    for (int s = 0; s < W * W * W; ++s) {
-      const tree::Coords<3> ijk{first[0] + s % W, first[1] + (s / W) % W, first[2] + s / (W * W)};
+    for (int s = 0; s < size; ++s) {
+      const tree::Coords<3> ijk{first[0] + s % n[0], first[1] + (s / n[0]) % n[1], first[2] + s / (n[0] * n[1])};
       cells[s] = t.find(level, ijk);
       if (!is_active_leaf(t, level, cells[s])) return s;
     }
     return -1;
   }
-  // Anchors: the level-(L-k) cells containing the stencil, at most 2 per axis (the shift
+  // Anchors: the level-(L-k) cells containing the stencil, at most A per axis (the shift
   // is a floor division, also for negative coordinates before a periodic wrap). The low
   // bits of a negative (to-be-wrapped) coordinate are those of the wrapped one, since a
   // periodic period is a multiple of 2^L.
@@ -44,12 +51,12 @@ int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, 
   for (int d = 0; d < 3; ++d) {
     a0[d] = first[d] >> k;
     p0[d] = first[d] >> 1;
-    np[d] = ((first[d] + W - 1) >> 1) - p0[d] + 1;
+    np[d] = ((first[d] + n[d] - 1) >> 1) - p0[d] + 1;
   }
-  Index anchor[2][2][2];
-  for (int c = 0; c <= ((first[2] + W - 1) >> k) - a0[2]; ++c)
-    for (int b = 0; b <= ((first[1] + W - 1) >> k) - a0[1]; ++b)
-      for (int a = 0; a <= ((first[0] + W - 1) >> k) - a0[0]; ++a)
+  Index anchor[A][A][A];
+  for (int c = 0; c <= ((first[2] + n[2] - 1) >> k) - a0[2]; ++c)
+    for (int b = 0; b <= ((first[1] + n[1] - 1) >> k) - a0[1]; ++b)
+      for (int a = 0; a <= ((first[0] + n[0] - 1) >> k) - a0[0]; ++a)
         anchor[c][b][a] = t.find(anchor_level, {a0[0] + a, a0[1] + b, a0[2] + c});
   // The stencil's parents (level L-1), descended from their anchors, and their first
   // child: 8 contiguous cells, active (not halo) exactly when the parent is a parent.
@@ -77,30 +84,30 @@ int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, 
   // Below the max level an active cell may itself be a parent: check each.
   const bool check_leaf = level < t.max_level();
   int s = 0;
-  for (int kz = 0; kz < W; ++kz)
-    for (int jy = 0; jy < W; ++jy)
-      for (int ix = 0; ix < W; ++ix, ++s) {
+  for (int kz = 0; kz < n[2]; ++kz)
+    for (int jy = 0; jy < n[1]; ++jy)
+      for (int ix = 0; ix < n[0]; ++ix, ++s) {
         const tree::Coords<3> ijk{first[0] + ix, first[1] + jy, first[2] + kz};
         const Index fc = first_child[(ijk[2] >> 1) - p0[2]][(ijk[1] >> 1) - p0[1]][(ijk[0] >> 1) - p0[0]];
         if (fc == tree::kNone) return s;
         cells[s] = fc + ((ijk[0] & 1) | ((ijk[1] & 1) << 1) | ((ijk[2] & 1) << 2));
         if (check_leaf && !fine.is_leaf(cells[s])) return s;
       }
-  CAPSFLOW_ASSERT(patch_is_the_stencil<W>(t, level, first, cells),
-                  fmt::format("ibm: find_patch on level {} from ({}, {}, {}) is not the stencil's cells", level, first[0],
+  CAPSFLOW_ASSERT(box_is_the_stencil(t, level, first, n, cells),
+                  fmt::format("ibm: find_box on level {} from ({}, {}, {}) is not the stencil's cells", level, first[0],
                               first[1], first[2]));
   return -1;
 }
 
-template <int W>
-bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const Index* cells) {
+bool box_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+                        const Index* cells) {
   const auto& o = t.options();
   const tree::Level<3>& lv = t.level(level);
-  for (int s = 0; s < W * W * W; ++s) {
-    tree::Coords<3> ijk{first[0] + s % W, first[1] + (s / W) % W, first[2] + s / (W * W)};
-    for (int d = 0; d < 3; ++d) {  // wrapped across periodic sides, as find_patch does
-      const auto n = static_cast<std::int32_t>(o.roots[d] << level);
-      if (o.periodic[d]) ijk[d] = ((ijk[d] % n) + n) % n;
+  for (int s = 0; s < n[0] * n[1] * n[2]; ++s) {
+    tree::Coords<3> ijk{first[0] + s % n[0], first[1] + (s / n[0]) % n[1], first[2] + s / (n[0] * n[1])};
+    for (int d = 0; d < 3; ++d) {  // wrapped across periodic sides, as find_box does
+      const auto m = static_cast<std::int32_t>(o.roots[d] << level);
+      if (o.periodic[d]) ijk[d] = ((ijk[d] % m) + m) % m;
     }
     if (!is_active_leaf(t, level, cells[s]) || tree::morton_decode<3>(lv.keys[cells[s] - lv.base]) != ijk)
       return false;
@@ -108,12 +115,14 @@ bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<
   return true;
 }
 
-template int find_patch<2>(const tree::Tree<3>&, int, const tree::Coords<3>&, Index*);
-template int find_patch<4>(const tree::Tree<3>&, int, const tree::Coords<3>&, Index*);
-template int find_patch<6>(const tree::Tree<3>&, int, const tree::Coords<3>&, Index*);
-template bool patch_is_the_stencil<2>(const tree::Tree<3>&, int, const tree::Coords<3>&, const Index*);
-template bool patch_is_the_stencil<4>(const tree::Tree<3>&, int, const tree::Coords<3>&, const Index*);
-template bool patch_is_the_stencil<6>(const tree::Tree<3>&, int, const tree::Coords<3>&, const Index*);
+void require_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+                 Index* cells, std::int64_t node, const double* x, std::string_view operation,
+                 std::string_view kernel) {
+  const int slot = find_box(t, level, first, n, cells);
+  if (slot < 0) return;
+  const tree::Coords<3> ijk{first[0] + slot % n[0], first[1] + (slot / n[0]) % n[1], first[2] + slot / (n[0] * n[1])};
+  throw_missing_cell(t, level, ijk, node, x, operation, kernel);
+}
 
 void throw_missing_cell(const tree::Tree<3>& t, int level, const tree::Coords<3>& ijk, std::int64_t node,
                         const double* x, std::string_view operation, std::string_view kernel) {

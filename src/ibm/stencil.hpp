@@ -24,6 +24,7 @@
 // cell must be an active leaf of the level (never a halo cell, never a coarser leaf, never
 // outside a wall): otherwise the caller throws StencilError, since any fallback weight
 // would be wrong.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -80,18 +81,77 @@ template <Kernel K>
           axis_stencil<K>(x[2], o.origin[2], h, offset(2))};
 }
 
+// A stencil with a width per axis (at most kMaxBoxWidth): the face stencils. Slot
+// i + n0 j + n0 n1 k holds cell first + (i, j, k) with weight w[0][i] w[1][j] w[2][k].
+inline constexpr int kMaxBoxWidth = 8;
+struct BoxStencil {
+  std::array<int, 3> n{};
+  tree::Coords<3> first{};
+  std::array<std::array<double, kMaxBoxWidth>, 3> w{};
+  [[nodiscard]] int size() const { return n[0] * n[1] * n[2]; }
+};
+
+template <int W>
+void set_axis(BoxStencil& b, int d, const AxisStencil<W>& a) {
+  b.n[d] = W;
+  b.first[d] = a.first;
+  std::copy(a.w.begin(), a.w.end(), b.w[d].begin());
+}
+
+// The stencil of component face_axis on the faces normal to it: K's node_stencil, or, for
+// DivergenceFree<K> (kernels.hpp), K on the cell centres along the other two axes and the
+// smoothed kernel psi on the faces along face_axis, over the K::kSupport + 1 faces nearest
+// the node (psi's support is that wide: i0 = the nearest face, faces i0 - W/2 ... i0 + W/2).
+// These cells lie within the cube of width K::kSupport + 2 that the band provides.
+template <Kernel K>
+[[nodiscard]] inline BoxStencil face_stencil(const tree::TreeOptions<3>& o, double h, const double* x, int face_axis) {
+  CAPSFLOW_ASSERT(face_axis >= 0 && face_axis < 3, "ibm: a face stencil needs the component's axis");
+  BoxStencil b;
+  if constexpr (kIsDivergenceFree<K>) {
+    using Base = typename K::Base;
+    constexpr int W = Base::kSupport;
+    for (int d = 0; d < 3; ++d)
+      if (d != face_axis) set_axis(b, d, axis_stencil<Base>(x[d], o.origin[d], h, 0.5));
+    const double u = (x[face_axis] - o.origin[face_axis]) / h;
+    CAPSFLOW_ASSERT(std::abs(u) < 1e9, "ibm: a membrane node's coordinate is not finite or far outside the tree");
+    const double i0 = std::floor(u + 0.5);
+    b.n[face_axis] = W + 1;
+    b.first[face_axis] = static_cast<std::int32_t>(i0) - W / 2;
+    double sum = 0.0;
+    for (int k = 0; k <= W; ++k) sum += b.w[face_axis][k] = K::weight((i0 - W / 2 + k) - u);
+    CAPSFLOW_ASSERT(sum > 0.0 && std::isfinite(sum), "ibm: the kernel's weights around a node do not sum to a positive value");
+    for (int k = 0; k <= W; ++k) b.w[face_axis][k] /= sum;
+  } else {
+    const auto st = node_stencil<K>(o, h, x, face_axis);
+    for (int d = 0; d < 3; ++d) set_axis(b, d, st[d]);
+  }
+  return b;
+}
+
+// Fills cells[slot] for each slot of a box of n[0] x n[1] x n[2] cells of `level` from
+// `first` (widths at most kMaxBoxWidth); returns -1 if all are active leaves, else the
+// first missing slot.
+int find_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+             Index* cells);
+
 // Fills cells[i + W j + W^2 k] with the active leaf of `level` at first + (i, j, k)
 // (coordinates wrap across periodic sides). Returns -1 if all exist, else the first slot
 // whose cell is missing (then cells is partly filled). Checked builds assert that a
 // complete patch is the stencil (patch_is_the_stencil).
 template <int W>
-int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells);
+int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells) {
+  return find_box(t, level, first, {W, W, W}, cells);
+}
 
 // Whether cells[] holds, for each stencil slot, an active leaf of `level` whose key
 // decodes to first + (i, j, k) (wrapped): the anchors and descents of find_patch are
 // shortcuts, the keys are the truth they must agree with.
+bool box_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+                        const Index* cells);
 template <int W>
-bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const Index* cells);
+bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const Index* cells) {
+  return box_is_the_stencil(t, level, first, {W, W, W}, cells);
+}
 
 // Thrown when a stencil cell is missing; names the node, its position, the cell and why.
 class StencilError : public std::runtime_error {
@@ -110,14 +170,14 @@ class StencilError : public std::runtime_error {
                                      std::int64_t node, const double* x, std::string_view operation,
                                      std::string_view kernel);
 
-// Finds the patch of node `node` and throws StencilError naming its first missing cell.
+// Finds the box of node `node` and throws StencilError naming its first missing cell.
+void require_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+                 Index* cells, std::int64_t node, const double* x, std::string_view operation,
+                 std::string_view kernel);
 template <int W>
 void require_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells,
                    std::int64_t node, const double* x, std::string_view operation, std::string_view kernel) {
-  const int slot = find_patch<W>(t, level, first, cells);
-  if (slot < 0) return;
-  const tree::Coords<3> ijk{first[0] + slot % W, first[1] + (slot / W) % W, first[2] + slot / (W * W)};
-  throw_missing_cell(t, level, ijk, node, x, operation, kernel);
+  require_box(t, level, first, {W, W, W}, cells, node, x, operation, kernel);
 }
 
 }  // namespace capsflow::ibm

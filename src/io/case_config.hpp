@@ -62,6 +62,11 @@ struct MultigridConfig {
 struct FluidConfig {
   double Re = 1.0;              // Reynolds number rho V l / mu
   bool stokes = false;          // true: drop the advection term
+  bool crank_nicolson = false;  // viscosity by Crank-Nicolson (else backward Euler)
+  // The projected faces carried between steps, and each step's force in its viscous solve
+  // (fluid::FlowOptions::carry_faces, current_force_in_viscous): with crank_nicolson and
+  // time.node_scheme = "midpoint" the coupled step is second order in time.
+  bool carry_faces = false;
   double density_ratio = 1.0;   // inside / outside capsules
   double viscosity_ratio = 1.0; // inside / outside capsules
   std::array<BoundaryConfig, 6> boundary{};
@@ -100,6 +105,8 @@ struct CapsuleConfig {
   KernelType spread_kernel = KernelType::cosine;
   KernelType interp_kernel = KernelType::hat;
   bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
+  // staggered only: the kernels' divergence-free forms (ibm::DivergenceFree), one cell wider
+  bool divergence_free = true;
   bool operator==(const CapsuleConfig&) const = default;
 };
 

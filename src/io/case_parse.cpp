@@ -73,6 +73,8 @@ void parse_boundary(TableReader r, const DomainConfig& domain, int dim, FluidCon
 void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig& f) {
   r.read("Re", f.Re);
   r.read("stokes", f.stokes);
+  r.read("crank_nicolson", f.crank_nicolson);
+  r.read("carry_faces", f.carry_faces);
   r.read("density_ratio", f.density_ratio);
   r.read("viscosity_ratio", f.viscosity_ratio);
   const toml::table* mg = r.table("multigrid");
@@ -117,6 +119,7 @@ CapsuleConfig parse_capsule(TableReader r) {
   r.read("spread_kernel", c.spread_kernel, detail::kKernelTypes);
   r.read("interp_kernel", c.interp_kernel, detail::kKernelTypes);
   r.read("staggered", c.staggered);
+  r.read("divergence_free", c.divergence_free);
   r.finish();
   return c;
 }

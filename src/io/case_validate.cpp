@@ -176,10 +176,12 @@ int kernel_support(KernelType k) {
 // How far beyond a node its stencils reach (ibm/stencil.hpp): a kernel of support W uses the
 // max-level cells whose centres lie within W/2 cells of it, so the outermost cell's far edge
 // is (W - 1)/2 cells of size h away; staggered, the faces within W/2 cells, and a face on
-// the upper side is held by the cell above it, up to W/2 cells away. A node closer than
+// the upper side is held by the cell above it, up to W/2 cells away (divergence-free: the
+// stencil is W + 2 wide, ibm/stencil.hpp). A node closer than
 // that to a non-periodic side would need cells outside the domain at the first step.
 double kernel_reach(const CaseConfig& c, const CapsuleConfig& cap) {
-  const int w = std::max(kernel_support(cap.spread_kernel), kernel_support(cap.interp_kernel));
+  const int w = std::max(kernel_support(cap.spread_kernel), kernel_support(cap.interp_kernel)) +
+                (cap.staggered && cap.divergence_free ? 2 : 0);
   const double h = c.domain.root_size / static_cast<double>(std::int64_t{1} << c.adapt.max_level);
   return 0.5 * (cap.staggered ? w : w - 1) * h;
 }

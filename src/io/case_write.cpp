@@ -60,6 +60,8 @@ std::string to_toml(const CaseConfig& c) {
   out += "\n[fluid]\n";
   line("Re", toml_number(c.fluid.Re));
   line("stokes", b(c.fluid.stokes));
+  line("crank_nicolson", b(c.fluid.crank_nicolson));
+  line("carry_faces", b(c.fluid.carry_faces));
   line("density_ratio", toml_number(c.fluid.density_ratio));
   line("viscosity_ratio", toml_number(c.fluid.viscosity_ratio));
   out += "\n[fluid.multigrid]\n";
@@ -95,6 +97,7 @@ std::string to_toml(const CaseConfig& c) {
     line("spread_kernel", toml_string(to_string(cap.spread_kernel)));
     line("interp_kernel", toml_string(to_string(cap.interp_kernel)));
     line("staggered", b(cap.staggered));
+    line("divergence_free", b(cap.divergence_free));
   }
 
   out += "\n[time]\n";

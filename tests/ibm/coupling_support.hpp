@@ -27,6 +27,8 @@ struct SeedRun {
   int margin = 2;  // the band's cells beyond the kernels
   KernelChoice kernels{};
   bool crank_nicolson = false;  // viscous scheme (FlowOptions)
+  bool current_force_in_viscous = false;  // FlowOptions
+  bool carry_faces = false;               // FlowOptions
 };
 
 struct SeedSetup {
@@ -49,6 +51,8 @@ inline fluid::FlowOptions<3> seed_flow(const SeedRun& r) {
   o.projection.tolerance = r.tolerance;
   o.viscous.tolerance = r.tolerance;
   o.crank_nicolson = r.crank_nicolson;
+  o.current_force_in_viscous = r.current_force_in_viscous;
+  o.carry_faces = r.carry_faces;
   return o;
 }
 

@@ -255,20 +255,25 @@ TEST(io_case_errors, OverlappingCapsules) {
   EXPECT_NO_THROW((void)parse_case_text(replace(near, "centre = [-0.3, 0, 0]", "centre = [0.0, 0, 0]"), "c"));
 }
 
-// A node closer to a non-periodic side than its kernels reach, (support - 1)/2 max-level
-// cells (cosine: 1.5 cells of 2/64 = 0.047 at the default max_level 6), would need cells
-// outside the domain at the first step.
+// A node closer to a non-periodic side than its kernels reach would need cells outside the
+// domain at the first step: on faces W/2 max-level cells (the divergence-free forms
+// W/2 + 1: cosine 3 cells of 2/64 = 0.094 at the default max_level 6), on cells (W - 1)/2.
 TEST(io_case_errors, CapsuleWithinTheKernelsReachOfAWall) {
   const std::string capsule = std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [0, 0.46, 0]\n";
   const std::string e = error_of(capsule);
   EXPECT_THAT(e, HasSubstr("capsule[0].centre = [0.0, 0.46, 0.0]: the capsule is 0.04 from a side along y, "
-                           "within its kernels' reach (0.0625"));
-  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.43"), "c"));
+                           "within its kernels' reach (0.09375"));
+  EXPECT_THAT(error_of(replace(capsule, "0.46", "0.41")), HasSubstr("within its kernels' reach (0.09375"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.40"), "c"));
+  const std::string faces = capsule + "divergence_free = false\n";
+  EXPECT_THAT(error_of(faces), HasSubstr("within its kernels' reach (0.0625"));
+  EXPECT_NO_THROW((void)parse_case_text(replace(faces, "0.46", "0.43"), "c"));
   // Staggered stencils reach W/2 cells, the cell-centred ones (W - 1)/2.
-  EXPECT_THAT(error_of(replace(capsule, "0.46", "0.45")), HasSubstr("within its kernels' reach (0.0625"));
+  EXPECT_THAT(error_of(replace(faces, "0.46", "0.45")), HasSubstr("within its kernels' reach (0.0625"));
   EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45") + "staggered = false\n", "c"));
-  // The hat kernel alone reaches one cell.
-  EXPECT_NO_THROW((void)parse_case_text(capsule + "spread_kernel = \"hat\"\n", "c"));
+  // The hat kernel alone reaches one cell on faces, two in its divergence-free form.
+  EXPECT_NO_THROW((void)parse_case_text(faces + "spread_kernel = \"hat\"\n", "c"));
+  EXPECT_THAT(error_of(capsule + "spread_kernel = \"hat\"\n"), HasSubstr("within its kernels' reach (0.0625"));
   // Along a periodic direction there is no side to reach.
   EXPECT_NO_THROW((void)parse_case_text(std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [-3.5, 0, 0]\n", "c"));
 }

@@ -30,6 +30,10 @@ TEST(io_case_overrides, AValue) {
   EXPECT_EQ(with({"adapt.enabled=true"}).adapt.enabled, true);
   EXPECT_EQ(with({"name=\"other\""}).name, "other");
   EXPECT_EQ(with({" time.dt = 2.5e-4 "}).time.dt, 2.5e-4);
+  const CaseConfig second = with({"fluid.crank_nicolson=true", "fluid.carry_faces=true", "capsule[0].divergence_free=false"});
+  EXPECT_TRUE(second.fluid.crank_nicolson);
+  EXPECT_TRUE(second.fluid.carry_faces);
+  EXPECT_FALSE(second.capsules[0].divergence_free);
 }
 
 TEST(io_case_overrides, NestedValuesArraysAndTables) {

@@ -99,6 +99,8 @@ TEST(io_case_parse, DefaultsFillEverythingNotGiven) {
   EXPECT_EQ(c.fluid.viscosity_ratio, 1.0);
   EXPECT_EQ(c.fluid.multigrid.tolerance, 1e-3);
   EXPECT_EQ(c.fluid.multigrid.max_cycles, 50);
+  EXPECT_FALSE(c.fluid.crank_nicolson);
+  EXPECT_FALSE(c.fluid.carry_faces);
   EXPECT_TRUE(c.adapt.enabled);
   EXPECT_EQ(c.adapt.min_level, 2);
   EXPECT_EQ(c.adapt.max_level, 6);
