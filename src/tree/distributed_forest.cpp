@@ -255,6 +255,30 @@ void DistributedForest<D>::attach(Tree<D>& t) {
     }
   }
   const Key begin = partition_.split(comm_.rank()), end = partition_.split(comm_.rank() + 1);
+  // Replicated levels: the peers' lists of those levels become one gather (every peer gets
+  // the same list of this rank's cells there, in curve order).
+  gathers_.assign(static_cast<std::size_t>(replicated_levels_), {});
+  for (int l = 0; l < replicated_levels_; ++l) {
+    Gather& g = gathers_[static_cast<std::size_t>(l)];
+    const Level<D>& lv = t.level(l);
+    for (Index i = 0; i < lv.n_active; ++i) {
+      const Key position = curve_position<D>(l, lv.keys[static_cast<std::size_t>(i)], top);
+      if (position >= begin && position < end) g.send.push_back(lv.base + i);
+    }
+    g.counts.assign(static_cast<std::size_t>(comm_.size()), 0);
+    for (const Peer& p : level_peers_[static_cast<std::size_t>(l)])
+      g.counts[static_cast<std::size_t>(p.rank)] = static_cast<int>(p.receive.size());
+    g.counts[static_cast<std::size_t>(comm_.rank())] = static_cast<int>(g.send.size());
+    for (int q = 0; q < comm_.size(); ++q) {
+      g.offsets.push_back(static_cast<int>(g.receive.size()));
+      if (q == comm_.rank()) {
+        g.receive.insert(g.receive.end(), g.send.size(), kNone);
+        continue;
+      }
+      for (const Peer& p : level_peers_[static_cast<std::size_t>(l)])
+        if (p.rank == q) g.receive.insert(g.receive.end(), p.receive.begin(), p.receive.end());
+    }
+  }
   std::vector<std::uint8_t> owned(static_cast<std::size_t>(t.num_cells()), 0);
   for (int l = 0; l <= t.depth(); ++l) {
     const Level<D>& lv = t.level(l);
@@ -269,6 +293,23 @@ void DistributedForest<D>::attach(Tree<D>& t) {
 template <int D>
 void DistributedForest<D>::exchange(int level, std::span<double> v) const {
   if (level < 0 || level >= static_cast<int>(level_peers_.size())) return;
+  if (level < replicated_levels_) {  // every rank calls it: every rank holds these levels
+    const Gather& g = gathers_[static_cast<std::size_t>(level)];
+    gather_send_.resize(g.send.size());
+    gather_receive_.resize(g.receive.size());
+    for (std::size_t i = 0; i < g.send.size(); ++i) gather_send_[i] = v[static_cast<std::size_t>(g.send[i])];
+    if (exchanges_.size() < level_peers_.size()) exchanges_.resize(level_peers_.size(), 0);
+    ++exchanges_[static_cast<std::size_t>(level)];
+    values_sent_ += static_cast<std::int64_t>(g.send.size());
+    const auto start = std::chrono::steady_clock::now();
+    check(MPI_Allgatherv(gather_send_.data(), static_cast<int>(gather_send_.size()), MPI_DOUBLE, gather_receive_.data(),
+                         g.counts.data(), g.offsets.data(), MPI_DOUBLE, comm_.handle()),
+          "MPI_Allgatherv");
+    waiting_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (std::size_t i = 0; i < g.receive.size(); ++i)
+      if (g.receive[i] != kNone) v[static_cast<std::size_t>(g.receive[i])] = gather_receive_[i];
+    return;
+  }
   const auto& peers = level_peers_[static_cast<std::size_t>(level)];
   if (peers.empty()) return;
   if (exchanges_.size() < level_peers_.size()) exchanges_.resize(level_peers_.size(), 0);

@@ -111,6 +111,16 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
   int width_ = kGhostWidth;
   int replicated_levels_ = 0;  // levels [0, replicated_levels_) are replicated
+  // A replicated level is filled by one MPI_Allgatherv (log P latencies, not P - 1
+  // messages): this rank's owned cells of the level, and every rank's block unpacked into
+  // the local cells it names (rank order; this rank's own block is skipped).
+  struct Gather {
+    std::vector<Index> send;
+    std::vector<Index> receive;       // all ranks' cells, rank order (own block: kNone)
+    std::vector<int> counts, offsets;  // per rank
+  };
+  std::vector<Gather> gathers_;  // per replicated level
+  mutable std::vector<double> gather_send_, gather_receive_;
   parallel::Comm comm_;
   Partition partition_;
   TreeOptions<D> options_;
