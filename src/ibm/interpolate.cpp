@@ -12,16 +12,23 @@ namespace capsflow::ibm {
 
 namespace {
 constexpr Eigen::Index kParallelNodes = 256;
+// Every component has one value per cell of t (a field kept across an adapt must have been
+// resized with it).
+template <class Components>
+void require_cell_sized(const tree::Tree<3>& t, const Components& u, const char* what) {
+  for (const auto& ud : u)
+    if (ud.size() != static_cast<std::size_t>(t.num_cells()))
+      throw std::invalid_argument(
+          fmt::format("ibm: interpolate from a {} of {} slots, the tree has {} cells", what, ud.size(), t.num_cells()));
+}
+
 }  // namespace
 
 template <Kernel K>
 void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double>, 3>& u,
                  const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
   constexpr int W = K::kSupport, W3 = W * W * W;
-  for (const auto& ud : u)
-    if (ud.size() != static_cast<std::size_t>(t.num_cells()))
-      throw std::invalid_argument(
-          fmt::format("ibm: interpolate from a field of {} cells, the tree has {}", ud.size(), t.num_cells()));
+  require_cell_sized(t, u, "field");
   const Eigen::Index n = x.cols();
   v.resize(3, n);
   const int level = t.max_level();
@@ -64,10 +71,7 @@ template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
                        Eigen::Matrix3Xd& v) {
   constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
-  for (const auto& ud : uf)
-    if (ud.size() != static_cast<std::size_t>(t.num_cells()))
-      throw std::invalid_argument(
-          fmt::format("ibm: interpolate from a face field of {} slots, the tree has {} cells", ud.size(), t.num_cells()));
+  require_cell_sized(t, uf, "face field");
   const Eigen::Index n = x.cols();
   v.resize(3, n);
   const int level = t.max_level();

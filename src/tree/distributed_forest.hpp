@@ -129,6 +129,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   std::vector<PeerCells> peer_cells_;    // ranks ascending
   std::vector<std::vector<Peer>> level_peers_;  // per level, ranks ascending
   mutable std::vector<std::vector<double>> send_buffers_, receive_buffers_;
+  mutable std::vector<MPI_Request> requests_;
   mutable double waiting_ = 0.0;
   mutable std::vector<std::int64_t> exchanges_;  // per level
   mutable std::int64_t values_sent_ = 0;
