@@ -41,7 +41,7 @@ Index local_index(const Tree<D>& t, const CurveCell& c) {
 template <int D>
 DistributedForest<D>::DistributedForest(const parallel::Comm& comm, const Partition& partition,
                                         const TreeOptions<D>& o, std::span<const CurveCell> owned_leaves, int width)
-    : comm_(comm), partition_(partition), options_(o), width_(width) {
+    : width_(width), comm_(comm), partition_(partition), options_(o) {
   plan(partition, owned_leaves);
 }
 
@@ -461,13 +461,35 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
     }
   }
 
-  if (fields == 0) values.assign(cells.size(), 0.0);  // migrate_leaves carries one component at least
-  // Repartition by leaf count, move the leaves, plan again, and make the new local tree.
-  std::vector<Key> positions(cells.size());
-  const std::vector<std::int64_t> weights(cells.size(), 1);
-  for (std::size_t i = 0; i < cells.size(); ++i) positions[i] = cells[i].position;
-  const Partition next = Partition::by_weight(comm_, positions, weights);
-  const MigratedLeaves moved = migrate_leaves(comm_, next, cells, values, std::max(fields, 1));
+  repartition(t, cells, std::move(values));
+  counts.leaves = static_cast<Index>(t.owned_leaves().size());
+  counts.cells = t.num_cells();
+  return counts;
+}
+
+template <int D>
+std::vector<std::int64_t> DistributedForest<D>::weights_of(std::span<const CurveCell> leaves) const {
+  std::vector<std::int64_t> weights(leaves.size(), 1);
+  if (weight_)
+    for (std::size_t i = 0; i < leaves.size(); ++i) weights[i] = weight_(leaves[i].level, key_of<D>(leaves[i], options_.max_level));
+  return weights;
+}
+
+template <int D>
+std::int64_t DistributedForest<D>::owned_weight() const {
+  std::int64_t sum = 0;
+  for (const std::int64_t w : weights_of(owned_)) sum += w;
+  return sum;
+}
+
+template <int D>
+void DistributedForest<D>::repartition(Tree<D>& t, std::span<const CurveCell> leaves, std::vector<double> values) {
+  const int fields = t.num_fields();
+  if (fields == 0) values.assign(leaves.size(), 0.0);  // migrate_leaves carries one component at least
+  std::vector<Key> positions(leaves.size());
+  for (std::size_t i = 0; i < leaves.size(); ++i) positions[i] = leaves[i].position;
+  const Partition next = Partition::by_weight(comm_, positions, weights_of(leaves));
+  const MigratedLeaves moved = migrate_leaves(comm_, next, leaves, values, std::max(fields, 1));
   std::vector<FieldSpec<D>> specs;
   for (int f = 0; f < fields; ++f) specs.push_back(t.field_spec(f));
   plan(next, moved.leaves);
@@ -480,9 +502,19 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
       t.values(f)[static_cast<std::size_t>(c)] = moved.values[i * static_cast<std::size_t>(fields) + static_cast<std::size_t>(f)];
   }
   for (int f = 0; f < fields; ++f) t.exchange_all(t.values(f));
-  counts.leaves = static_cast<Index>(t.owned_leaves().size());
-  counts.cells = t.num_cells();
-  return counts;
+}
+
+template <int D>
+void DistributedForest<D>::rebalance(Tree<D>& t) {
+  const int fields = t.num_fields();
+  std::vector<double> values;
+  values.reserve(owned_.size() * static_cast<std::size_t>(fields));
+  for (const CurveCell& cell : owned_) {
+    const Index c = local_index(t, cell);
+    for (int f = 0; f < fields; ++f) values.push_back(t.values(f)[static_cast<std::size_t>(c)]);
+  }
+  const std::vector<CurveCell> leaves = owned_;
+  repartition(t, leaves, std::move(values));
 }
 
 template <int D>
@@ -562,7 +594,7 @@ std::optional<Tree<D>> DistributedForest<D>::gather_on_root(const Tree<D>& local
 }
 
 template <int D>
-std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tree<D>& t) {
+std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tree<D>& t, LeafWeight weight) {
   const int top = t.max_level();
   std::vector<CurveCell> leaves;
   leaves.reserve(static_cast<std::size_t>(t.num_leaves()));
@@ -580,7 +612,7 @@ std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tre
   if (comm.is_root())
     for (const CurveCell& c : leaves) {
       positions.push_back(c.position);
-      weights.push_back(1);
+      weights.push_back(weight ? weight(c.level, key_of<D>(c, top)) : 1);
     }
   const Partition partition = Partition::by_weight(comm, positions, weights);
   const Key begin = partition.split(comm.rank()), end = partition.split(comm.rank() + 1);
@@ -588,6 +620,7 @@ std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tre
   for (const CurveCell& c : leaves)
     if (c.position >= begin && c.position < end) owned.push_back(c);
   auto forest = std::make_unique<DistributedForest<D>>(comm, partition, t.options(), owned);
+  forest->set_leaf_weight(std::move(weight));
   Tree<D> local = forest->make_tree();
   for (int f = 0; f < t.num_fields(); ++f) (void)local.add_field(t.field_spec(f));
   // Every active cell of the local tree is a cell of the forest (placeholders included).
@@ -607,7 +640,7 @@ std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tre
 
 template class DistributedForest<2>;
 template class DistributedForest<3>;
-template std::unique_ptr<DistributedForest<2>> distribute<2>(const parallel::Comm&, Tree<2>&);
-template std::unique_ptr<DistributedForest<3>> distribute<3>(const parallel::Comm&, Tree<3>&);
+template std::unique_ptr<DistributedForest<2>> distribute<2>(const parallel::Comm&, Tree<2>&, LeafWeight);
+template std::unique_ptr<DistributedForest<3>> distribute<3>(const parallel::Comm&, Tree<3>&, LeafWeight);
 
 }  // namespace capsflow::tree

@@ -27,6 +27,7 @@
 // exchange, so an owned cell computes what one rank computes; reductions take the owned
 // leaves only.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -45,6 +46,11 @@ inline constexpr int kGhostWidth = 2;
 // by every rank (replicated()).
 inline constexpr std::int64_t kReplicatedCellsPerRank = 64;
 inline constexpr std::int64_t kReplicatedCellsMax = 32768;
+
+// The load a leaf puts on its rank, for the partition: a positive integer from the leaf's
+// level and Morton key (1 for every leaf unless set; a capsule can weight the cells its
+// membrane crosses, whose spreading and interpolation cost several times a fluid cell's).
+using LeafWeight = std::function<std::int64_t(int level, Key key)>;
 
 template <int D>
 class DistributedForest final : public Distribution, public DistributedAdaptation<D> {
@@ -73,9 +79,19 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   // with the tree's own balance, keep what decided the owned leaves" until no rank's owned
   // leaves change (flags only move from merge to keep to split, so it ends); a merge is its
   // parent's owner's decision. The new leaves get their values as one rank's adapt would
-  // give them (prolongation, volume mean), are repartitioned by count (leaf_migration),
+  // give them (prolongation, volume mean), are repartitioned by weight (leaf_migration),
   // and t becomes the local tree of the new plan, ghosts exchanged.
   AdaptCounts adapt(Tree<D>& t, int min_level) override;
+
+  // The weight every later partition gives a leaf (adapt(), rebalance()); empty: 1 each.
+  // Every rank sets the same function.
+  void set_leaf_weight(LeafWeight weight) { weight_ = std::move(weight); }
+  // Repartitions the current leaves by their weights (after the weights changed) and
+  // migrates every field of t, bit for bit; t becomes the local tree of the new plan.
+  // Collective.
+  void rebalance(Tree<D>& t);
+  // The weight of the leaves this rank owns.
+  [[nodiscard]] std::int64_t owned_weight() const;
 
   // The whole forest on rank 0: its leaves and every field's values on them (the other
   // slots zero; sync before reading them). Empty on the other ranks. Collective.
@@ -109,6 +125,13 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   };
   // Builds the plan for these owned leaves (the constructor's work, again after an adapt).
   void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
+  // The weight of each of these leaves.
+  [[nodiscard]] std::vector<std::int64_t> weights_of(std::span<const CurveCell> leaves) const;
+  // The tail of adapt() and rebalance(): `leaves` (this rank's, curve order) with `values`
+  // (every field of t per leaf) go to their owners under the weighted partition, and t
+  // becomes the local tree of the new plan, ghosts exchanged.
+  void repartition(Tree<D>& t, std::span<const CurveCell> leaves, std::vector<double> values);
+  LeafWeight weight_;
   int width_ = kGhostWidth;
   int replicated_levels_ = 0;  // levels [0, replicated_levels_) are replicated
   // A replicated level is filled by one MPI_Allgatherv (log P latencies, not P - 1
@@ -136,10 +159,12 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
 };
 
 // Replaces t, the same whole forest (cells, fields, values) on every rank, by this rank's
-// local tree for a partition by leaf count, every field carried; returns the plan that t
-// now points to (keep it alive as long as t). Collective.
+// local tree for a partition by leaf weight (1 each if weight is empty; the plan keeps the
+// function for later partitions), every field carried; returns the plan that t now points
+// to (keep it alive as long as t). Collective.
 template <int D>
-[[nodiscard]] std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tree<D>& t);
+[[nodiscard]] std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tree<D>& t,
+                                                               LeafWeight weight = {});
 
 extern template class DistributedForest<2>;
 extern template class DistributedForest<3>;

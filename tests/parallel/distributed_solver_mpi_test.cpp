@@ -157,6 +157,78 @@ TEST(DistributedForest, RandomAdaptationsMatchSerialPeriodic2D) {
 }
 TEST(DistributedForest, RandomAdaptationsMatchSerial3D) { check_random_adaptation<3>({.roots = {1, 2, 1}, .max_level = 5}); }
 
+// Weighted partitions: a leaf's weight is 10 where a hash of its key and of the round
+// picks it (a membrane band's cells, say) and 1 elsewhere. After the first partition, each
+// random adaptation and each rebalance under new weights, every rank's owned weight is
+// within the heaviest leaf of W / P (partition.hpp), the gathered forest is the serial one
+// value for value, and every local tree is balanced.
+template <int D>
+void check_weighted_partition(const TreeOptions<D>& o) {
+  const parallel::Comm comm = parallel::Comm::world();
+  Tree<D> serial = testing::uneven_tree(o);
+  Tree<D> t = testing::uneven_tree(o);
+  const FieldId fs = serial.add_field({.name = "v"});
+  const FieldId f = t.add_field({.name = "v"});
+  for (const Index c : serial.leaves()) serial.values(fs)[static_cast<std::size_t>(c)] = smooth<D>(serial.center(c));
+  for (const Index c : t.leaves()) t.values(f)[static_cast<std::size_t>(c)] = smooth<D>(t.center(c));
+  constexpr std::int64_t kHeavy = 10;
+  auto weight_for = [](int round) {
+    return [round](int level, Key key) -> std::int64_t {
+      const std::uint64_t h = (key * 0xD6E8FEB86659FD93ull + static_cast<std::uint64_t>(level * 977 + round * 31)) >> 41;
+      return h % 4 == 0 ? kHeavy : 1;
+    };
+  };
+  auto expect_balanced_and_serial = [&](const DistributedForest<D>& forest, const char* when, int round) {
+    testing::check_invariants(t);
+    const std::int64_t mine = forest.owned_weight();
+    const std::int64_t total = parallel::global_sum(comm, mine);
+    const double share = static_cast<double>(total) / comm.size();
+    EXPECT_LE(std::abs(static_cast<double>(mine) - share), static_cast<double>(kHeavy)) << when << " round " << round;
+    const auto whole = forest.gather_on_root(t);
+    if (!comm.is_root()) return;
+    ASSERT_EQ(whole->num_leaves(), serial.num_leaves()) << when << " round " << round;
+    std::int64_t differ = 0;
+    for (const Index c : serial.leaves()) {
+      const Index w = whole->find(serial.level_of(c), serial.coords(c));
+      if (w == kNone || whole->values(f)[static_cast<std::size_t>(w)] != serial.values(fs)[static_cast<std::size_t>(c)]) ++differ;
+    }
+    EXPECT_EQ(differ, 0) << when << " round " << round;
+  };
+  const auto forest = distribute(comm, t, weight_for(0));
+  expect_balanced_and_serial(*forest, "distribute", 0);
+  // Heavy leaves are a quarter of all: an even weight split is not an even count split.
+  if (comm.size() > 1) {
+    const std::int64_t leaves = static_cast<std::int64_t>(t.owned_leaves().size());
+    const std::int64_t fewest = -parallel::global_max(comm, -leaves), most = parallel::global_max(comm, leaves);
+    EXPECT_GT(most, fewest + 1) << "weights did not change the split";
+  }
+  for (int round = 1; round <= 4; ++round) {
+    auto flags_of = [round](const Tree<D>& tr) {
+      std::vector<std::int8_t> out(static_cast<std::size_t>(tr.num_cells()), 0);
+      for (const Index c : tr.leaves()) {
+        const int l = tr.level_of(c);
+        const Key key = tr.level(l).keys[static_cast<std::size_t>(c - tr.level(l).base)];
+        const std::uint64_t h = (key * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(l * 131 + round * 7919)) >> 40;
+        out[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(h % 7 == 0 ? 1 : (h % 7 < 4 ? -1 : 0));
+      }
+      return out;
+    };
+    (void)serial.apply_flags(flags_of(serial));
+    (void)t.apply_flags(flags_of(t));
+    expect_balanced_and_serial(*forest, "adapt", round);
+    forest->set_leaf_weight(weight_for(round));
+    forest->rebalance(t);
+    expect_balanced_and_serial(*forest, "rebalance", round);
+  }
+}
+
+TEST(DistributedForest, WeightedPartitionAndRebalance2D) {
+  check_weighted_partition<2>({.roots = {2, 1}, .max_level = 7});
+}
+TEST(DistributedForest, WeightedPartitionAndRebalance3D) {
+  check_weighted_partition<3>({.roots = {1, 2, 1}, .max_level = 5});
+}
+
 // --- multigrid
 
 template <int D>
