@@ -240,6 +240,16 @@ class Tree {
   bool owns(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] != 0; }
   // The leaves this rank computes and reduces over: every leaf on one rank.
   std::span<const Index> owned_leaves() const { return dist_ ? std::span<const Index>(owned_leaves_) : leaves_; }
+  // The sibling groups [first, second) of level l >= 1 that hold every cell this rank owns
+  // there (owned cells of a level are one run of the curve, so one range): loops whose
+  // results are exchanged afterwards need not compute the ghosts and placeholders outside
+  // it (the whole level on one rank, and on a replicated level).
+  std::pair<Index, Index> owned_groups(int l) const {
+    // A replicated level is relaxed whole by every rank, with no exchange.
+    if (dist_ == nullptr || static_cast<std::size_t>(l) >= owned_groups_.size() || dist_->replicated(l))
+      return {0, levels_[l].n_active / kChildren<D>};
+    return owned_groups_[static_cast<std::size_t>(l)];
+  }
   // The deepest level on any rank: the range of every loop that exchanges.
   int global_depth() const { return global_depth_; }
   bool replicated_level(int l) const { return dist_ != nullptr && dist_->replicated(l); }
@@ -384,6 +394,7 @@ class Tree {
   DistributedAdaptation<D>* dist_adapt_ = nullptr;
   std::vector<std::uint8_t> owned_;  // per cell, distributed only
   std::vector<Index> owned_leaves_;
+  std::vector<std::pair<Index, Index>> owned_groups_;  // per level, distributed only
   Index num_cells_ = 0;
 
   std::vector<FieldSpec<D>> fields_;

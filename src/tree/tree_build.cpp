@@ -418,6 +418,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
     dist_ = nullptr;
     owned_.clear();
     owned_leaves_.clear();
+    owned_groups_.clear();
     global_depth_ = depth_;
     return;
   }
@@ -428,6 +429,17 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
   owned_leaves_.clear();
   for (const Index c : leaves_)
     if (owned_[static_cast<std::size_t>(c)]) owned_leaves_.push_back(c);
+  owned_groups_.assign(static_cast<std::size_t>(depth_) + 1, {0, 0});
+  for (int l = 1; l <= depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    Index first = lv.n_active, last = -1;
+    for (Index i = 0; i < lv.n_active; ++i)
+      if (owned_[static_cast<std::size_t>(lv.base + i)]) {
+        first = std::min(first, i);
+        last = i;
+      }
+    if (last >= 0) owned_groups_[static_cast<std::size_t>(l)] = {first / kChildren<D>, last / kChildren<D> + 1};
+  }
   global_depth_ = static_cast<int>(d->max(static_cast<std::int64_t>(depth_)));
 }
 

@@ -86,7 +86,7 @@ class EllipticOperator {
 
   // res = b - L(a) on the leaves, and on every parent the volume mean of its children's
   // (the restriction a V-cycle starts from, done here while the group is in cache);
-  // returns max |res| over the leaves (a synced).
+  // returns max |res| over the leaves this rank owns (a synced).
   double residual(std::span<const double> a, std::span<const double> b, std::span<double> res) const {
     CAPSFLOW_ASSERT(spans_cells(a) && spans_cells(b) && spans_cells(res),
                     "EllipticOperator::residual: a field does not have the tree's num_cells entries");
@@ -133,9 +133,9 @@ class EllipticOperator {
         // gives every rank the numbers of one rank (a replicated level: every rank relaxes
         // every cell, with no exchange).
         const bool exchange = !tree_.replicated_level(l);
-        relax_colour<0>(lv, diag, da, res, {});
+        relax_colour<0>(l, lv, diag, da, res, {});
         if (exchange) tree_.exchange_level(l, da);
-        relax_colour<1>(lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
+        relax_colour<1>(l, lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
         if (exchange) tree_.exchange_level(l, da);
       } else {
         const Index n = lv.n_active, base = lv.base;
@@ -230,49 +230,68 @@ class EllipticOperator {
       const Index base = lv.base;
       if (l == 0) {
         for (Index c = base; c < lv.active_end(); ++c)
-          if (lv.leaf[c - base]) w = std::max(w, f(c, apply(lv, c, h, a)));
+          if (lv.leaf[c - base]) {
+            const double value = f(c, apply(lv, c, h, a));
+            if (tree_.owns(c)) w = std::max(w, value);
+          }
         continue;
       }
-      const Index groups = lv.n_active / C;
+      // Distributed: only the groups holding owned cells (the ghosts' values come from
+      // their owners: the residual is restricted and exchanged afterwards).
+      const auto range = tree_.owned_groups(l);
+      const Index g_begin = range.first, g_end = range.second;
       const double inv_h2 = 1.0 / (h * h);
       const Index* parent = lv.group_parent.data();
-      auto restrict_group = [out, parent](Index g, Index first) {
-        if constexpr (kRestrict) {
-          double sum = 0.0;
-          for (int b = 0; b < C; ++b) sum += out[first + b];
-          out[parent[g]] = sum * (1.0 / C);
-        }
-      };
-#pragma omp parallel for schedule(static) reduction(max : w) firstprivate(f) if (lv.n_active > tree::kParallelMin)
-      for (Index g = 0; g < groups; ++g) {
+      // f on the group's leaves, the parent restricted; returns their maximum. Masked: the
+      // cells of other ranks stay out of it (their stencils may reach cells this rank does
+      // not have).
+      auto group_max = [&, f, a, out, parent, inv_h2, base, h](Index g, auto masked) {
         const Index first = base + g * C;
         const Index* gf = lv.group_face_row(g);
-        if (g + kPrefetchGroups < groups) prefetch_high_neighbors(lv, g + kPrefetchGroups, a.data());
+        if (g + kPrefetchGroups < g_end) prefetch_high_neighbors(lv, g + kPrefetchGroups, a.data());
         const std::uint8_t* leaf = lv.leaf.data() + (first - base);
         double value[C];
         if (all_plain_leaves(leaf)) {  // the common case, without a branch per cell
 #pragma GCC unroll 8
           for (int b = 0; b < C; ++b)
             value[b] = f(first + b, plain(first + b, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); }));
-          w = std::max(w, max_of<C>(value));
-          restrict_group(g, first);
-          continue;
-        }
+        } else {
 #pragma GCC unroll 8
-        for (int b = 0; b < C; ++b) {
-          value[b] = 0.0;
-          if (!leaf[b]) continue;
-          const Index c = first + b;
-          const double la = leaf[b] == tree::Level<D>::kLeafNextToFiner
-                                ? apply(lv, c, h, a)
-                                : plain(c, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
-          value[b] = f(c, la);
+          for (int b = 0; b < C; ++b) {
+            value[b] = 0.0;
+            if (!leaf[b]) continue;
+            const Index c = first + b;
+            const double la = leaf[b] == tree::Level<D>::kLeafNextToFiner
+                                  ? apply(lv, c, h, a)
+                                  : plain(c, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+            value[b] = f(c, la);
+          }
+        }
+        if constexpr (decltype(masked)::value)
+          for (int b = 0; b < C; ++b)
+            if (!tree_.owns(first + b)) value[b] = 0.0;
+        if constexpr (kRestrict) {
+          double sum = 0.0;
+          for (int b = 0; b < C; ++b) sum += out[first + b];
+          out[parent[g]] = sum * (1.0 / C);
         }
         // A pairwise maximum: one running max per cell was a chain of dependent
         // instructions as long as the sweep, the residual's critical path.
-        w = std::max(w, max_of<C>(value));
-        restrict_group(g, first);
+        return max_of<C>(value);
+      };
+      // Distributed, the first and last groups may hold other ranks' cells (every group
+      // of a replicated level may): those are masked, the others run unmasked.
+      Index lo = g_begin, hi = g_end;
+      if (tree_.distributed()) {
+        if (tree_.replicated_level(l)) {
+          for (Index g = lo; g < hi; ++g) w = std::max(w, group_max(g, std::true_type{}));
+          continue;
+        }
+        if (lo < hi) w = std::max(w, group_max(lo++, std::true_type{}));
+        if (lo < hi) w = std::max(w, group_max(--hi, std::true_type{}));
       }
+#pragma omp parallel for schedule(static) reduction(max : w) firstprivate(group_max) if (lv.n_active > tree::kParallelMin)
+      for (Index g = lo; g < hi; ++g) w = std::max(w, group_max(g, std::false_type{}));
     }
     worst = w;
   }
@@ -310,7 +329,7 @@ class EllipticOperator {
   // neighbours come from the group's row (tree::group_neighbor), folded to constants.
   // A non-empty `corrected` (levels >= 1) gets += da on the leaves after the update.
   template <int Colour>
-  void relax_colour(const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
+  void relax_colour(int l, const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
                     std::span<double> corrected) const {
     const Index base = lv.base;
     if (base == 0) {  // level 0: roots are not sibling groups
@@ -319,14 +338,14 @@ class EllipticOperator {
       return;
     }
     if (!corrected.empty()) {
-      relax_groups<Colour, true>(lv, dg, da, res, corrected);
+      relax_groups<Colour, true>(l, lv, dg, da, res, corrected);
       return;
     }
-    relax_groups<Colour, false>(lv, dg, da, res, corrected);
+    relax_groups<Colour, false>(l, lv, dg, da, res, corrected);
   }
 
   template <int Colour, bool kCorrect>
-  void relax_groups(const tree::Level<D>& lv, const Diagonal dg, std::span<double> da, std::span<const double> res,
+  void relax_groups(int l, const tree::Level<D>& lv, const Diagonal dg, std::span<double> da, std::span<const double> res,
                     std::span<double> corrected) const {
     const Index base = lv.base;
     static constexpr auto kOfColour = [] {
@@ -336,12 +355,14 @@ class EllipticOperator {
         if ((std::popcount(static_cast<unsigned>(b)) & 1) == Colour) of[next++] = b;
       return of;
     }();
-    const Index groups = lv.n_active / C;
+    // Distributed: the ghosts get their owners' values by the exchange after each colour.
+    const auto range = tree_.owned_groups(l);
+    const Index g_begin = range.first, g_end = range.second;
 #pragma omp parallel for schedule(static) if (lv.n_active > kRelaxParallelMin)
-    for (Index g = 0; g < groups; ++g) {
+    for (Index g = g_begin; g < g_end; ++g) {
       const Index first = base + g * C;
       const Index* gf = lv.group_face_row(g);
-      if (g + kPrefetchGroups < groups) prefetch_high_neighbors(lv, g + kPrefetchGroups, da.data());
+      if (g + kPrefetchGroups < g_end) prefetch_high_neighbors(lv, g + kPrefetchGroups, da.data());
 #pragma GCC unroll 8
       for (int j = 0; j < C / 2; ++j) {
         const int b = kOfColour[j];

@@ -160,9 +160,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
     t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
     const double worst = op.residual(a, b, res);
-    // Distributed: the maximum over the owned leaves only (a ghost's stencil may reach
-    // cells this rank does not have), over all ranks.
-    if (!singular) return t.distributed() ? detail::leaf_max_abs<D>(t, res) : worst;
+    // Distributed: residual() took the maximum over the owned leaves only (a ghost's
+    // stencil may reach cells this rank does not have); then over all ranks.
+    if (!singular) return t.global_max(worst);
     detail::remove_mean<D>(t, res);
     return detail::leaf_max_abs<D>(t, res);
   };
