@@ -110,6 +110,23 @@ void for_each_leaf_level(const tree::Tree<D>& t, F&& f) {
   }
 }
 
+// As for_each_leaf_level, on the sibling groups holding this rank's cells only (every leaf
+// on one rank; tree::Tree::owned_groups): for loops whose values on the ghosts are
+// exchanged before anything reads them.
+template <int D, class F>
+void for_each_owned_leaf_level(const tree::Tree<D>& t, F&& f) {
+  constexpr Index C = tree::kChildren<D>;
+  for (int l = 0; l <= t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    const double h = t.cell_size(l);
+    const auto groups = t.owned_groups(l);
+    const Index begin = l == 0 ? 0 : groups.first * C, end = l == 0 ? lv.n_active : groups.second * C, base = lv.base;
+#pragma omp parallel for schedule(static) if (end - begin > tree::kParallelMin)
+    for (Index i = begin; i < end; ++i)
+      if (lv.leaf[i]) f(base + i, l, h);
+  }
+}
+
 // Halo cells take their coarse leaf's value (for slopes: the coarse cell's slope).
 template <int D>
 void inject_halo(const tree::Tree<D>& t, std::span<double> v) {
@@ -127,12 +144,13 @@ Index upper_face(const tree::Level<D>& lv, Index c, int d) {
   return lv.face_row(c)[2 * d + 1];
 }
 
-// div(uf) at the leaves: sum_d (uf_up - uf_low) / h.
+// div(uf) at the leaves this rank owns (every leaf on one rank; the callers read owned
+// leaves only): sum_d (uf_up - uf_low) / h.
 template <int D>
 void divergence(const tree::Tree<D>& t, const FaceField<D>& uf, std::span<double> div) {
   CAPSFLOW_ASSERT(spans_cells<D>(uf, t) && div.size() == static_cast<std::size_t>(t.num_cells()),
                   "divergence: a field does not have the tree's num_cells slots");
-  for_each_leaf_level<D>(t, [&](Index c, int l, double h) {
+  for_each_owned_leaf_level<D>(t, [&](Index c, int l, double h) {
     const tree::Level<D>& lv = t.level(l);
     const Index* row = lv.face_row(c);
     double s = 0.0;

@@ -139,8 +139,10 @@ template <int D>
 void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
   // u* + dt g carries the previous pressure gradient and acceleration through the
   // implicit solve; they are taken out again after it (Basilisk's correction(+-dt)).
+  // Owned leaves only: the solve's first sync brings the ghosts' u* from their owners, and
+  // the face mean after it (sync_velocity) their corrected u.
   auto correct = [&](double sign) {
-    tree_.for_each_leaf([&](Index c) {
+    tree_.for_each_owned_leaf([&](Index c) {
       for (int d = 0; d < D; ++d) tree_.values(u_[d])[c] += sign * dt * tree_.values(g_[d])[c];
     });
   };
@@ -155,7 +157,7 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
       continue;
     }
     std::span<double> u = tree_.values(u_[d]);
-    tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * u[c]; });
+    tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = lambda * u[c]; });  // a ghost's residual is its owner's
     if (theta < 1.0) {  // explicit half: rhs -= (1 - theta) div(mu grad u^n), walls at t^n
       const double t_new = boundary_time_;
       boundary_time_ = time_;
@@ -242,7 +244,7 @@ template <int D>
 int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt,
                              StepStats& stats) {
   divergence<D>(tree_, uf, div_);
-  tree_.for_each_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
+  tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });  // a ghost's residual is its owner's
   std::span<double> pv = tree_.values(p);
   MultigridOptions scaled = opt;
   scaled.tolerance /= dt * dt;  // residual of div(alpha grad p) = div(uf)/dt
@@ -281,7 +283,7 @@ void NavierStokes<D>::centred_gradient(double dt, bool only_g) {
     });
   });
   restrict_faces<D>(tree_, gf);
-  for_each_leaf_level<D>(tree_, [&](Index c, int l, double) {
+  for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {  // the ghosts' come by the exchange below
     const Index* row = tree_.level(l).face_row(c);
     for (int d = 0; d < D; ++d) {
       const double g = 0.5 * (gf[d][c] + gf[d][row[2 * d + 1]]);

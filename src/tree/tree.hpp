@@ -299,6 +299,15 @@ class Tree {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (Index i = 0; i < n; ++i) f(leaves_[i]);
   }
+  // The leaves this rank owns (every leaf on one rank): for loops whose results on the
+  // ghosts are overwritten by an exchange before anything reads them.
+  template <class F>
+  void for_each_owned_leaf(F&& f) const {
+    const std::span<const Index> owned = owned_leaves();
+    const auto n = static_cast<Index>(owned.size());
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+    for (Index i = 0; i < n; ++i) f(owned[i]);
+  }
   template <class F>
   void for_each_cell_at_level(int l, F&& f) const {
     const Level<D>& lv = levels_[l];
