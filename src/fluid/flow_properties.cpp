@@ -110,8 +110,9 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
     lambda_[c] = -rho[c] / (theta * dt);
     rhs_[c] = lambda_[c] * u[c] - transpose[c] / theta;
   });
-  // The multigrid relaxes parents too: they take the volume mean of their children's.
-  for (int l = tree_.depth() - 1; l >= 0; --l) tree_.restrict_level(l, lambda_);
+  // The multigrid relaxes parents too: they take the volume mean of their children's
+  // (distributed: the ghosts' from their owners).
+  tree_.restrict_and_exchange(lambda_);
   if (theta < 1.0) {  // explicit part at u^n (not u*: shift_by_g), walls at t^n
     const double t_new = boundary_time_;
     boundary_time_ = time_;

@@ -62,9 +62,12 @@ void Tree<D>::restrict_level(int l, std::span<double> v) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::restrict_level: the field does not have num_cells entries");
   constexpr int C = kChildren<D>;
   const Level<D>& lv = levels_[l];
-  const Index b = lv.active_begin(), e = lv.active_end();
-#pragma omp parallel for schedule(static) if (e - b > kParallelMin)
-  for (Index c = b; c < e; ++c) {
+  // Distributed: the parents this rank owns (restrict_and_exchange brings the ghosts').
+  const auto groups = owned_groups(l);
+  const Index b = lv.active_begin(), from = l == 0 ? b : b + groups.first * C,
+              to = l == 0 ? lv.active_end() : b + groups.second * C;
+#pragma omp parallel for schedule(static) if (to - from > kParallelMin)
+  for (Index c = from; c < to; ++c) {
     if (lv.leaf[c - b]) continue;
     const Index fc = lv.first_child[c - b];
     double sum = 0.0;

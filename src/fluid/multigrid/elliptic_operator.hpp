@@ -93,10 +93,14 @@ class EllipticOperator {
     double worst = 0.0;
     // Spans captured by value: through references the loop reloads their data pointers
     // after every store.
-    for_each_leaf_value<true>(a, [res, b](Index c, double la) {
+    auto residual_of = [res, b](Index c, double la) {
       res[c] = b[c] - la;
       return abs_or_infinity(res[c]);
-    }, worst, res);
+    };
+    // Distributed, the cycle restricts and exchanges level by level instead (a parent of
+    // this rank may have children whose residuals come from other ranks).
+    if (tree_.distributed()) for_each_leaf_value<false>(a, residual_of, worst, res);
+    else for_each_leaf_value<true>(a, residual_of, worst, res);
     return worst;
   }
 
