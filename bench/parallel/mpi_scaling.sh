@@ -25,6 +25,7 @@ print(f"speed-up 2 ranks / 1 rank: {med['1x1'] / med['2x1']:.2f} (target >= 1.5)
 print(f"OpenMP 1x2 / 1x1: {med['1x1'] / med['1x2']:.2f}")
 print(f"MPI 2x1 time / OpenMP 1x2 time: {med['2x1'] / med['1x2']:.2f} (target <= 1.10)")
 print(f"2 ranks: bytes sent per step by the busiest rank {statistics.median(float(r['bytes_per_step']) for r in mpi):.3g}, "
-      f"fraction of the step waiting {statistics.median(float(r['wait_fraction']) for r in mpi):.3f}")
+      f"fraction of the step waiting {statistics.median(float(r['wait_fraction']) for r in mpi):.3f}, "
+      f"of which the messages alone {statistics.median(float(r['exchange_fraction']) for r in mpi):.3f} (the rest: imbalance)")
 PY
 rm -f "$out"

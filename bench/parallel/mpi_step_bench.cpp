@@ -5,7 +5,8 @@
 // each as unsteady Stokes ("stokes") or Navier-Stokes ("ns"). Prints one line of
 // key=value: seconds per step (the slowest rank, after one warm-up step), values sent per
 // step by the busiest rank, the fraction of the step that rank spent waiting on messages,
-// the ghost cells per level, and leaves.
+// the ghost cells per level, leaves, and the fraction of the step the exchanges cost when
+// timed alone (no imbalance: what overlapping them with interior work could hide at most).
 #include <mpi.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 #include "../seed_channel.hpp"
 #include "fluid/navier_stokes.hpp"
@@ -74,13 +76,30 @@ int main(int argc, char** argv) {
       exchanges += sep + std::to_string(parallel::global_max(comm, traffic.exchanges_per_level[l]) / (steps + 1));
     }
   }
+  // What the messages alone cost: each level's exchange timed back to back (ranks in step,
+  // so no imbalance inside), times its exchanges per step. The most that overlapping the
+  // exchanges with interior work could hide; the rest of the waiting is imbalance.
+  double exchange_seconds = 0.0;
+  if (forest) {
+    const auto traffic = forest->traffic();
+    std::vector<double> scratch(static_cast<std::size_t>(t.num_cells()), 1.0);
+    constexpr int kRepeats = 20;
+    for (std::size_t l = 0; l < traffic.exchanges_per_level.size(); ++l) {
+      const double per_step = double(parallel::global_max(comm, traffic.exchanges_per_level[l])) / (steps + 1);
+      MPI_Barrier(comm.handle());
+      const auto begin = std::chrono::steady_clock::now();
+      for (int r = 0; r < kRepeats; ++r) t.exchange_level(static_cast<int>(l), scratch);
+      const double each = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count() / kRepeats;
+      exchange_seconds += per_step * parallel::global_max(comm, each);
+    }
+  }
   const auto leaves = static_cast<long long>(t.global_leaves());  // collective: every rank
   if (comm.is_root())
     std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
                 "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f ghosts_per_level=%s "
-                "neighbours_per_level=%s exchanges_per_step_per_level=%s\n",
+                "neighbours_per_level=%s exchanges_per_step_per_level=%s exchange_fraction=%.3f\n",
                 which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
                 leaves, seconds, double(cycles) / steps, busiest, 8 * busiest,
-                wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str());
+                wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), exchange_seconds / seconds);
   return 0;
 }
