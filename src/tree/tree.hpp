@@ -344,6 +344,11 @@ class Tree {
   // the leaves are first brought from their owners and each level's after its restriction,
   // so every cell a stencil of this rank reads holds the owner's value.
   void restrict_and_exchange(std::span<double> v, int coarsest = 0) const;
+  // v restricted on every group of owned_groups() (as the multigrid residual leaves it):
+  // level by level from the deepest, the parents whose children straddle the end of this
+  // rank's range are restricted again from their owners' values, then the level is
+  // exchanged. Nothing on one rank.
+  void exchange_restricted(std::span<double> v) const;
   // sync for readers of the leaves and their face neighbours only (the multigrid's
   // residual): parents are restricted only on the levels a halo prolongation reads (none
   // on a uniform tree) and only the halo groups in Level::halo_read are filled; the other
@@ -399,6 +404,10 @@ class Tree {
   std::vector<Index> leaves_;
   int depth_ = 0;
   int global_depth_ = 0;  // depth_ on one rank
+  // Distributed: the coarsest level any rank's owned cells read through a halo (parents
+  // restricted down to it by sync_leaf_neighbors), and the coarsest level it must exchange
+  // (that one, or the coarsest owned leaf on any rank).
+  int leaf_sync_restrict_from_ = 0, leaf_sync_exchange_from_ = 0;
   const Distribution* dist_ = nullptr;
   DistributedAdaptation<D>* dist_adapt_ = nullptr;
   std::vector<std::uint8_t> owned_;  // per cell, distributed only

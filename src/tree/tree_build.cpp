@@ -441,6 +441,22 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
     if (last >= 0) owned_groups_[static_cast<std::size_t>(l)] = {first / kChildren<D>, last / kChildren<D> + 1};
   }
   global_depth_ = static_cast<int>(d->max(static_cast<std::int64_t>(depth_)));
+  // The halos owned cells read, and the owned leaves' levels (sync_leaf_neighbors): the
+  // local tree's own halos next to its placeholders would otherwise make every rank restrict
+  // and exchange every level, though no owned stencil reads them.
+  std::int64_t reads = depth_, leaf_level = depth_;
+  for (int l = 1; l <= depth_ && reads == depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    for (Index i = 0; i < lv.n_active && reads == depth_; ++i) {
+      if (!owned_[static_cast<std::size_t>(lv.base + i)]) continue;
+      const Index* row = lv.face_row(lv.base + i);
+      for (int k = 0; k < kFaces<D>; ++k)
+        if (row[k] >= lv.halo_begin() && row[k] < lv.halo_end()) reads = l - 1;
+    }
+  }
+  for (const Index c : owned_leaves_) leaf_level = std::min<std::int64_t>(leaf_level, level_of(c));
+  leaf_sync_restrict_from_ = static_cast<int>(-d->max(-reads));
+  leaf_sync_exchange_from_ = std::min(leaf_sync_restrict_from_, static_cast<int>(-d->max(-leaf_level)));
 }
 
 template <int D>

@@ -181,6 +181,30 @@ void Tree<D>::restrict_and_exchange(std::span<double> v, int coarsest) const {
 }
 
 template <int D>
+void Tree<D>::exchange_restricted(std::span<double> v) const {
+  if (!dist_) return;
+  constexpr int C = kChildren<D>;
+  for (int l = global_depth_; l >= 0; --l) {
+    if (l < depth_) {
+      if (dist_->replicated(l + 1)) {
+        restrict_level(l, v);  // every parent: its children came whole by the last exchange
+      } else {
+        // An owned parent's children are owned, or lie past the end of the range: only the
+        // parent of the last group (and, harmlessly, of the first) can have read stale ones.
+        const Level<D>& fine = levels_[l + 1];
+        const auto [first, last] = owned_groups(l + 1);
+        for (Index g = first; g < last; g = (g == first && last - 1 > first) ? last - 1 : last) {
+          double sum = 0.0;
+          for (int k = 0; k < C; ++k) sum += v[static_cast<std::size_t>(fine.base + g * C + k)];
+          v[static_cast<std::size_t>(fine.group_parent[static_cast<std::size_t>(g)])] = sum * (1.0 / C);
+        }
+      }
+    }
+    exchange_level(l, v);
+  }
+}
+
+template <int D>
 void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync: the field does not have num_cells entries");
   if (p == Prolongation::none) p = Prolongation::linear;
@@ -202,8 +226,16 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
       coarsest_read = l - 1;
       break;
     }
-  // Distributed: the ranks must exchange the same levels, whatever their own halos.
-  restrict_and_exchange(v, dist_ ? 0 : coarsest_read);
+  if (!dist_) {
+    restrict_and_exchange(v, coarsest_read);
+  } else {
+    // Every rank exchanges the same levels: those of any rank's owned leaves and the
+    // parents any rank's owned cells read through a halo (set_distribution), restricted.
+    for (int l = global_depth_; l >= leaf_sync_exchange_from_; --l) {
+      if (l < depth_ && l >= leaf_sync_restrict_from_) restrict_level(l, v);
+      exchange_level(l, v);
+    }
+  }
   for (int l = 0; l <= depth_; ++l) {
     fill_halo(l, v, p, HaloCells::face_read);
     fill_ghosts(l, v, bc);
@@ -276,6 +308,7 @@ template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditi
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
 template void Tree<2>::restrict_and_exchange(std::span<double>, int) const;
+template void Tree<2>::exchange_restricted(std::span<double>) const;
 template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::child_values(Index, FieldId, double*) const;
 template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
@@ -287,6 +320,7 @@ template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditi
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);
 template void Tree<3>::restrict_and_exchange(std::span<double>, int) const;
+template void Tree<3>::exchange_restricted(std::span<double>) const;
 template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::child_values(Index, FieldId, double*) const;
 template void Tree<3>::transfer_fields(const std::vector<Level<3>>&, int, Index);

@@ -97,10 +97,9 @@ class EllipticOperator {
       res[c] = b[c] - la;
       return abs_or_infinity(res[c]);
     };
-    // Distributed, the cycle restricts and exchanges level by level instead (a parent of
-    // this rank may have children whose residuals come from other ranks).
-    if (tree_.distributed()) for_each_leaf_value<false>(a, residual_of, worst, res);
-    else for_each_leaf_value<true>(a, residual_of, worst, res);
+    // Distributed, the parents whose children straddle the end of this rank's range are
+    // restricted again once those children came from their owner (Tree::exchange_restricted).
+    for_each_leaf_value<true>(a, residual_of, worst, res);
     return worst;
   }
 

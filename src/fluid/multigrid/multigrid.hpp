@@ -123,7 +123,9 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
   const auto& t = op.tree();
   CAPSFLOW_ASSERT(detail::spans_cells(t, {res, da, scratch}) && (corrected.empty() || detail::spans_cells(t, {corrected})),
                   "multigrid vcycle: a field does not have the tree's num_cells entries");
-  if (!restricted) t.restrict_and_exchange(res);  // distributed: the ghosts' residuals too
+  // Distributed: the ghosts' residuals too.
+  if (!restricted) t.restrict_and_exchange(res);
+  else t.exchange_restricted(res);
   for (int l = 0; l <= t.depth(); ++l) {
     if (l == 0) {
       const auto& lv = t.level(0);
@@ -153,9 +155,8 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   const bool singular = op.singular();
   if (!opt.warm_start) t.for_each_leaf([&](tree::Index c) { a[c] = 0.0; });
 
-  // The residual comes restricted, unless the mean is then removed from its leaves, or the
-  // tree is distributed (the ghosts' residuals come from their owners first).
-  const bool restricted = !singular && !t.distributed();
+  // The residual comes restricted, unless the mean is then removed from its leaves.
+  const bool restricted = !singular;
   auto compute_residual = [&] {
     // Quadratic halo values keep the leaf operator second order across resolution jumps.
     t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
