@@ -54,7 +54,8 @@ struct FlowOptions {
   // mean of the cell velocity: the difference of the two, dt (A C - I) of the face
   // acceleration, is then not applied one step late. With an immersed-boundary force (grid
   // scale) that lag made the coupled step first order in time (issue 17). Falls back to the
-  // face mean after an adaptation or a restart (the faces are not carried there).
+  // face mean after a restart, and after an adaptation on the faces whose cells changed
+  // (face_velocity_carried()).
   bool carry_faces = false;
   std::array<SideFlow<D>, 2 * D> boundaries{};
   // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
