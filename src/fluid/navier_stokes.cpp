@@ -111,7 +111,7 @@ StepStats NavierStokes<D>::step() {
   const double dt = stable_dt();
   // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
   boundary_time_ = time_;
-  carrying_ = options_.carry_faces && faces_current_;
+  carrying_ = options_.carry_faces && (faces_current_ || faces_carried_);
   if (carrying_) {
     carried_faces_ = uf_;
     for (int d = 0; d < D; ++d) {
@@ -269,6 +269,7 @@ void NavierStokes<D>::projection(double dt, StepStats& stats) {
   stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats);
   centred_gradient(dt);
   faces_current_ = true;
+  faces_carried_ = false;
 }
 
 template <int D>
@@ -336,10 +337,43 @@ template <int D>
 tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D> opt, double relative) {
   tolerance = velocity_tolerance(tolerance, relative);
   for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
+  // The projected faces survive where the adaptation leaves the cells on both sides of a
+  // face as they were (one rank: a distributed adapt renumbers through the partition).
+  const bool keep = (faces_current_ || faces_carried_) && !tree_.distributed();
+  if (keep) {
+    kept_faces_ = uf_;
+    old_leaf_.assign(static_cast<std::size_t>(tree_.num_cells()), 0);
+    for (int l = 0; l <= tree_.depth(); ++l) {
+      const tree::Level<D>& lv = tree_.level(l);
+      for (Index i = 0; i < lv.n_active; ++i) old_leaf_[static_cast<std::size_t>(lv.base + i)] = lv.leaf[i] != 0;
+    }
+  }
+  const Index cells_before = tree_.num_cells();
   const auto counts = tree_.adapt(opt);
+  if (keep && counts.refined == 0 && counts.coarsened == 0 && tree_.num_cells() == cells_before) {
+    return counts;  // no rebuild: the same cells, the faces still the projected ones
+  }
   resize_scratch();
   faces_current_ = false;
+  faces_carried_ = false;
+  if (keep) carry_faces_through_adapt();
   return counts;
+}
+
+template <int D>
+void NavierStokes<D>::carry_faces_through_adapt() {
+  face_average_of_velocity(uf_);  // where a face's cells changed
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
+    auto old = [&lv, this](Index c) -> Index {  // the same leaf before the adapt, or kNone
+      if (c < lv.active_begin() || c >= lv.active_end() || !lv.is_leaf(c)) return tree::kNone;
+      const Index o = lv.old_index[static_cast<std::size_t>(c - lv.base)];
+      return o != tree::kNone && old_leaf_[static_cast<std::size_t>(o)] != 0 ? o : tree::kNone;
+    };
+    const Index olo = old(lo), ohi = old(hi);
+    if (olo != tree::kNone && ohi != tree::kNone) uf_[d][hi] = kept_faces_[d][ohi];
+  });
+  restrict_faces<D>(tree_, uf_);
+  faces_carried_ = true;
 }
 
 template void validate<2>(const FlowOptions<2>&);

@@ -54,7 +54,8 @@ struct FlowOptions {
   // mean of the cell velocity: the difference of the two, dt (A C - I) of the face
   // acceleration, is then not applied one step late. With an immersed-boundary force (grid
   // scale) that lag made the coupled step first order in time (issue 17). Falls back to the
-  // face mean after an adaptation or a restart (the faces are not carried there).
+  // face mean after a restart, and after an adaptation on the faces whose cells changed
+  // (face_velocity_carried()).
   bool carry_faces = false;
   std::array<SideFlow<D>, 2 * D> boundaries{};
   // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
@@ -106,6 +107,12 @@ class NavierStokes {
   // Whether face_velocity() is the projected face velocity of the current u: true after a
   // step, false before the first one and after adapt() (which resets the faces).
   bool face_velocity_current() const { return faces_current_; }
+  // After an adapt() that rebuilt the tree: face_velocity() holds the last projected face
+  // velocity on every face whose two cells are the same leaves as before (a membrane band
+  // at the max level keeps all of its faces), and the face mean of the cell velocity on
+  // the others. Then the faces around a membrane are still discretely divergence-free
+  // (issue 17: the midpoint node scheme's u^n after an adaptation). One rank only.
+  bool face_velocity_carried() const { return faces_carried_; }
 
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.
@@ -157,6 +164,7 @@ class NavierStokes {
   void sync_velocity();
   int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);
+  void carry_faces_through_adapt();  // uf_ from kept_faces_ after a rebuild
   // g = cell mean of alpha (force - grad p); u += dt g unless only_g.
   void centred_gradient(double dt, bool only_g = false);
   void evaluate_force();
@@ -193,6 +201,9 @@ class NavierStokes {
   std::array<std::vector<double>, D> transpose_;  // T per component
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   bool faces_current_ = false;                  // face_velocity_current()
+  bool faces_carried_ = false;                  // face_velocity_carried()
+  FaceField<D> kept_faces_;                     // adapt(): uf_ of the tree before
+  std::vector<std::uint8_t> old_leaf_;          // adapt(): whether each old cell was a leaf
 };
 
 extern template class NavierStokes<2>;

@@ -198,7 +198,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   double last_dt_ = 0.0;       // of the last fluid step (0 before the first)
   NodeScheme scheme_ = NodeScheme::euler;
   std::vector<Eigen::Matrix3Xd> motion_;  // per capsule: the node velocity of stage 5
-  fluid::FaceField<3> start_faces_;       // midpoint scheme: u^n on faces after an adaptation
+  fluid::FaceField<3> start_faces_;       // midpoint scheme: u^n on faces at the first step and after a restart
   fluid::NavierStokes<3>::FaceForce background_;
 };
 
