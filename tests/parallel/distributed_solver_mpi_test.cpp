@@ -109,6 +109,20 @@ TEST(DistributedForest, GhostsHoldOwnersValuesPeriodic2D) {
 }
 TEST(DistributedForest, GhostsHoldOwnersValues3D) { check_ghosts<3>({.roots = {1, 1, 2}, .max_level = 5}); }
 
+// Refine/coarsen flags from a hash of each leaf's key, level and the round: every rank
+// and the serial tree flag the same leaves.
+template <int D>
+std::vector<std::int8_t> random_flags(const Tree<D>& tr, int round) {
+  std::vector<std::int8_t> flags(static_cast<std::size_t>(tr.num_cells()), 0);
+  for (const Index c : tr.leaves()) {
+    const int l = tr.level_of(c);
+    const Key key = tr.level(l).keys[static_cast<std::size_t>(c - tr.level(l).base)];
+    const std::uint64_t h = (key * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(l * 131 + round * 7919)) >> 40;
+    flags[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(h % 7 == 0 ? 1 : (h % 7 < 4 ? -1 : 0));
+  }
+  return flags;
+}
+
 // Random refine/coarsen sequences (flags from a hash of the cell and the round, so every
 // rank and the serial tree flag the same leaves): after each, the ranks' leaves gathered are
 // the serial forest's, cell for cell and value for value, and each local tree is balanced.
@@ -123,18 +137,8 @@ void check_random_adaptation(const TreeOptions<D>& o) {
   for (const Index c : t.leaves()) t.values(f)[static_cast<std::size_t>(c)] = smooth<D>(t.center(c));
   const auto forest = distribute(comm, t);
   for (int round = 0; round < 6; ++round) {
-    auto flags_of = [round](const Tree<D>& tr) {
-      std::vector<std::int8_t> flags(static_cast<std::size_t>(tr.num_cells()), 0);
-      for (const Index c : tr.leaves()) {
-        const int l = tr.level_of(c);
-        const Key key = tr.level(l).keys[static_cast<std::size_t>(c - tr.level(l).base)];
-        const std::uint64_t h = (key * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(l * 131 + round * 7919)) >> 40;
-        flags[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(h % 7 == 0 ? 1 : (h % 7 < 4 ? -1 : 0));
-      }
-      return flags;
-    };
-    (void)serial.apply_flags(flags_of(serial));
-    (void)t.apply_flags(flags_of(t));
+    (void)serial.apply_flags(random_flags(serial, round));
+    (void)t.apply_flags(random_flags(t, round));
     testing::check_invariants(t);
     EXPECT_EQ(t.global_leaves(), serial.num_leaves()) << "round " << round;
     const auto whole = forest->gather_on_root(t);
@@ -203,18 +207,8 @@ void check_weighted_partition(const TreeOptions<D>& o) {
     EXPECT_GT(most, fewest + 1) << "weights did not change the split";
   }
   for (int round = 1; round <= 4; ++round) {
-    auto flags_of = [round](const Tree<D>& tr) {
-      std::vector<std::int8_t> out(static_cast<std::size_t>(tr.num_cells()), 0);
-      for (const Index c : tr.leaves()) {
-        const int l = tr.level_of(c);
-        const Key key = tr.level(l).keys[static_cast<std::size_t>(c - tr.level(l).base)];
-        const std::uint64_t h = (key * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(l * 131 + round * 7919)) >> 40;
-        out[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(h % 7 == 0 ? 1 : (h % 7 < 4 ? -1 : 0));
-      }
-      return out;
-    };
-    (void)serial.apply_flags(flags_of(serial));
-    (void)t.apply_flags(flags_of(t));
+    (void)serial.apply_flags(random_flags(serial, round));
+    (void)t.apply_flags(random_flags(t, round));
     expect_balanced_and_serial(*forest, "adapt", round);
     forest->set_leaf_weight(weight_for(round));
     forest->rebalance(t);
