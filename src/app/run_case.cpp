@@ -73,6 +73,7 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
 
 fluid::AdaptationOptions adaptation_options(const io::AdaptConfig& a) {
   return {.enabled = a.enabled, .interval = a.interval, .max_interval = a.max_interval,
+          .interval_time = a.interval_time, .max_interval_time = a.max_interval_time,
           .velocity_tolerance = a.velocity_tolerance, .velocity_tolerance_relative = a.velocity_tolerance_relative,
           .min_level = a.min_level, .wall_level = a.wall_level};
 }
@@ -108,6 +109,20 @@ class FlowRun {
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);
+      // The faces (absent from older checkpoints and ones written before any step).
+      if (comm_.size() == 1) {
+        bool current = true;
+        for (const auto& e : state.extras)
+          if (e.name == "face_velocity_current" && e.values.size() == 1) current = e.values[0] != 0.0;
+        for (const auto& e : state.extras)
+          if (e.name == "face_velocity") {
+            try {
+              ns_.restore_leaf_faces(e.values, current);
+            } catch (const std::invalid_argument& err) {
+              throw io::CheckpointError(fmt::format("{}: {}", request_.restart->string(), err.what()));
+            }
+          }
+      }
     } else {
       (void)adaptation_.refine_initial();
     }
@@ -252,8 +267,22 @@ class FlowRun {
   fs::path checkpoint(long step, double dt) {
     const fs::path file = out_ / numbered("checkpoint", step, "h5");
     with_whole_tree([&](const tree::Tree<D>& t) {
-      io::write_checkpoint<D>(file, t, {ns_.time(), step, dt},
-                              capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{});
+      std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
+      // The faces the next step starts from, where it reads them (midpoint nodes,
+      // carry_faces): without them a restarted run starts from the face mean of the cell
+      // velocity and departs from the uninterrupted one. On N ranks they are not gathered:
+      // such a restart starts there.
+      const bool faces_read =
+          case_.fluid.carry_faces || (capsules_ && case_.time.node_scheme == io::NodeScheme::midpoint);
+      if (!forest_ && faces_read) {
+        std::vector<double> faces = ns_.leaf_faces();
+        if (!faces.empty()) {
+          const std::size_t n = faces.size() / (2 * D);
+          extras.push_back({"face_velocity", {n, 2 * D}, std::move(faces)});
+          extras.push_back({"face_velocity_current", {1}, {ns_.face_velocity_current() ? 1.0 : 0.0}});
+        }
+      }
+      io::write_checkpoint<D>(file, t, {ns_.time(), step, dt}, extras);
     });
     return file;
   }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -19,6 +20,14 @@ Adaptation<D>::Adaptation(NavierStokes<D>& ns, AdaptationOptions options) : ns_(
   if (options_.max_interval < 0)
     throw std::invalid_argument(
         fmt::format("adaptation: max_interval {} must be >= 0", options_.max_interval));
+  if (!(options_.interval_time >= 0.0) || !(options_.max_interval_time >= 0.0))
+    throw std::invalid_argument(fmt::format("adaptation: interval_time {} and max_interval_time {} must be >= 0",
+                                            options_.interval_time, options_.max_interval_time));
+  if (options_.interval_time > 0.0 && (options_.interval != 1 || options_.max_interval != 0))
+    throw std::invalid_argument("adaptation: an interval in time replaces the one in steps (interval 1, max_interval 0)");
+  if (options_.max_interval_time > 0.0 && options_.max_interval_time < options_.interval_time)
+    throw std::invalid_argument(fmt::format("adaptation: max_interval_time {} must be 0 or >= interval_time {}",
+                                            options_.max_interval_time, options_.interval_time));
   if (options_.min_level < 0 || options_.min_level > top)
     throw std::invalid_argument(
         fmt::format("adaptation: min_level {} is outside [0, max_level {}]", options_.min_level, top));
@@ -71,7 +80,20 @@ tree::AdaptCounts Adaptation<D>::refine_initial() {
 
 template <int D>
 bool Adaptation<D>::due(std::int64_t step) const {
-  if (!options_.enabled || step % options_.interval != 0) return false;
+  if (!options_.enabled) return false;
+  if (options_.interval_time > 0.0) {
+    const double dt = ns_.last_dt(), t = ns_.time();
+    if (!(dt > 0.0)) return false;  // no step yet
+    // The number of whole intervals by time t; the slack absorbs the round-off of a time
+    // summed step by step (t = 4 x 1e-3 may be 0.00399999...).
+    const auto whole = [&](double s) { return std::floor(s / options_.interval_time + 1e-6); };
+    if (whole(t) == whole(t - dt)) return false;
+    if (!(options_.max_interval_time > options_.interval_time) || !bodies_) return true;
+    // The bodies count steps: the wait in steps at this dt.
+    const auto steps = [&](double s) { return static_cast<int>(std::max(1.0, std::round(s / dt))); };
+    return !bodies_->may_wait(steps(options_.max_interval_time));
+  }
+  if (step % options_.interval != 0) return false;
   if (options_.max_interval <= options_.interval || !bodies_) return true;
   return !bodies_->may_wait(options_.max_interval);
 }

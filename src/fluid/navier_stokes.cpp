@@ -57,6 +57,56 @@ void NavierStokes<D>::resize_scratch() {
   }
 }
 
+namespace {
+// The leaves by (level, Morton key): an order that does not depend on how the tree was
+// built (a tree rebuilt from a checkpoint has the same leaves at other indices).
+template <int D>
+std::vector<Index> leaves_by_key(const tree::Tree<D>& t) {
+  std::vector<Index> order(t.leaves().begin(), t.leaves().end());
+  const auto key = [&](Index c) {
+    const int l = t.level_of(c);
+    return std::pair{l, t.level(l).keys[static_cast<std::size_t>(c - t.level(l).base)]};
+  };
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return key(a) < key(b); });
+  return order;
+}
+}  // namespace
+
+template <int D>
+std::vector<double> NavierStokes<D>::leaf_faces() const {
+  CAPSFLOW_ASSERT(!tree_.distributed(), "NavierStokes::leaf_faces: one rank only");
+  if (!(faces_current_ || faces_carried_)) return {};
+  std::vector<double> out;
+  out.reserve(static_cast<std::size_t>(tree_.num_leaves()) * 2 * D);
+  for (const Index c : leaves_by_key(tree_)) {
+    const Index* row = tree_.level(tree_.level_of(c)).face_row(c);
+    for (int d = 0; d < D; ++d) {
+      out.push_back(uf_[d][c]);
+      out.push_back(uf_[d][row[2 * d + 1]]);
+    }
+  }
+  return out;
+}
+
+template <int D>
+void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool current) {
+  CAPSFLOW_ASSERT(!tree_.distributed(), "NavierStokes::restore_leaf_faces: one rank only");
+  if (values.size() != static_cast<std::size_t>(tree_.num_leaves()) * 2 * D)
+    throw std::invalid_argument(fmt::format("face velocity: {} values for {} leaves (2D per leaf expected)",
+                                            values.size(), tree_.num_leaves()));
+  resize_scratch();
+  std::size_t k = 0;
+  for (const Index c : leaves_by_key(tree_)) {
+    const Index* row = tree_.level(tree_.level_of(c)).face_row(c);
+    for (int d = 0; d < D; ++d) {
+      uf_[d][c] = values[k++];
+      uf_[d][row[2 * d + 1]] = values[k++];
+    }
+  }
+  faces_current_ = current;
+  faces_carried_ = !current;
+}
+
 // Calls body(alpha, faces) with alpha(d, lo, hi, level) the value of 1/rho on a fine face
 // and `faces` the same as the elliptic operator's coefficient type: the constant
 // (ConstantFaces) or the face array (FaceArray). Two instantiations of body, so the
@@ -123,6 +173,10 @@ StepStats NavierStokes<D>::step() {
   if (!options_.stokes) prediction_and_advection(dt, stats);
   boundary_time_ = time_ + dt;
   if (options_.current_force_in_viscous && face_force_) {
+    // The pressure's halos as the last solve left them (quadratic): after an adapt or a
+    // restart they are the transfer's, and a restarted run would depart from the
+    // uninterrupted one (issue 17). Restores what the solve wrote, so otherwise a no-op.
+    tree_.sync(tree_.values(p_), conditions_.pressure, tree::Prolongation::quadratic);
     evaluate_force();
     centred_gradient(dt, /*only_g=*/true);
   }
@@ -130,6 +184,7 @@ StepStats NavierStokes<D>::step() {
   acceleration(dt);
   projection(dt, stats);
   time_ += dt;
+  last_dt_ = dt;
   stats.t = time_;
   stats.dt = dt;
   return stats;

@@ -96,6 +96,9 @@ class NavierStokes {
   const FlowConditions<D>& conditions() const { return conditions_; }
   double time() const { return time_; }
   void set_time(double t) { time_ = t; }
+  // The length of the last step (0 before the first step of this object, also after a
+  // restart): with time(), the interval the last step covered.
+  double last_dt() const { return last_dt_; }
   // The next steps are at most `cap` long (to land on an output or final time).
   void limit_dt(double cap) { dt_cap_ = cap; }
 
@@ -113,6 +116,15 @@ class NavierStokes {
   // the others. Then the faces around a membrane are still discretely divergence-free
   // (issue 17: the midpoint node scheme's u^n after an adaptation). One rank only.
   bool face_velocity_carried() const { return faces_carried_; }
+  // The face velocity for a checkpoint (issue 17: a restarted run with the midpoint node
+  // scheme or carry_faces must start from the same u^n faces as the uninterrupted one):
+  // for each leaf by (level, Morton key), its lower then upper face along each axis
+  // (2D values); empty when the faces are neither current nor carried. One rank only.
+  std::vector<double> leaf_faces() const;
+  // Restores what leaf_faces() gave on the same leaf set (a checkpoint's), as current
+  // faces when `current`, else as carried ones. Throws std::invalid_argument for a size
+  // that is not 2D per leaf.
+  void restore_leaf_faces(std::span<const double> values, bool current);
 
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.
@@ -178,6 +190,7 @@ class NavierStokes {
   FlowConditions<D> conditions_;
   tree::BoundaryConditions<D> zero_gradient_;
   double time_ = 0.0;
+  double last_dt_ = 0.0;  // last_dt()
   double boundary_time_ = 0.0;
   double dt_cap_ = 1e300;  // the time boundary conditions are evaluated at
   double mu_ = 1.0;

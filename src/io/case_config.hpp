@@ -88,6 +88,10 @@ struct AdaptConfig {
   // > interval: with capsules, an adaptation may wait up to this many steps while the
   // membrane nodes barely move (ibm::CapsuleCoupling::may_wait); 0: every interval.
   int max_interval = 0;
+  // The same in time (> 0: replaces interval and max_interval, which must stay 1 and 0):
+  // adaptations at the same instants whatever dt (fluid::AdaptationOptions).
+  double interval_time = 0.0;
+  double max_interval_time = 0.0;
   bool operator==(const AdaptConfig&) const = default;
 };
 

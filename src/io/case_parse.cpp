@@ -101,6 +101,8 @@ void parse_adapt(TableReader r, AdaptConfig& a) {
   r.read("membrane_band", a.membrane_band);
   r.read("interval", a.interval);
   r.read("max_interval", a.max_interval);
+  r.read("interval_time", a.interval_time);
+  r.read("max_interval_time", a.max_interval_time);
   r.finish();
 }
 

@@ -146,6 +146,16 @@ void check_adapt(const CaseConfig& c, const Checker& ck) {
   if (a.max_interval != 0 && a.max_interval < a.interval)
     ck.fail("adapt.max_interval", fmt::format("{}", a.max_interval),
             fmt::format("must be 0 (off) or >= adapt.interval ({})", a.interval));
+  ck.non_negative("adapt.interval_time", a.interval_time);
+  ck.non_negative("adapt.max_interval_time", a.max_interval_time);
+  if (a.interval_time > 0.0 && (a.interval != 1 || a.max_interval != 0))
+    ck.fail("adapt.interval_time", toml_number(a.interval_time),
+            "replaces adapt.interval and adapt.max_interval: give the interval in steps or in time, not both");
+  if (a.max_interval_time != 0.0 && a.max_interval_time < a.interval_time)
+    ck.fail("adapt.max_interval_time", toml_number(a.max_interval_time),
+            fmt::format("must be 0 (off) or >= adapt.interval_time ({})", toml_number(a.interval_time)));
+  if (a.max_interval_time > 0.0 && a.interval_time == 0.0)
+    ck.fail("adapt.max_interval_time", toml_number(a.max_interval_time), "needs adapt.interval_time > 0");
 }
 
 // The capsule's initial half-extent along direction d (the ellipsoid's axes are the

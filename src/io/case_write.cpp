@@ -81,6 +81,8 @@ std::string to_toml(const CaseConfig& c) {
   line("membrane_band", fmt::format("{}", c.adapt.membrane_band));
   line("interval", fmt::format("{}", c.adapt.interval));
   line("max_interval", fmt::format("{}", c.adapt.max_interval));
+  line("interval_time", toml_number(c.adapt.interval_time));
+  line("max_interval_time", toml_number(c.adapt.max_interval_time));
 
   for (const CapsuleConfig& cap : c.capsules) {
     out += "\n[[capsule]]\n";

@@ -75,6 +75,30 @@ TEST(Adaptation, AdaptsAfterEveryIntervalOfTheRunsSteps) {
   EXPECT_EQ(adapted, (std::vector<int>{6, 9}));
 }
 
+// An interval in time: the stage adapts after the steps that cross a multiple of it, so
+// dt = 0.01 and dt = 0.005 adapt at the same instants (0.03, 0.06, 0.09), and a step that
+// crosses one without landing on it adapts too (dt = 0.02: after 0.04, 0.06 and 0.10).
+TEST(Adaptation, AnIntervalInTimeAdaptsAtTheSameInstantsForEveryDt) {
+  for (const double dt : {0.01, 0.005, 0.02}) {
+    tree::Tree<2> tree{tree::TreeOptions<2>{.roots = {2, 1}, .root_size = 1.0, .max_level = 6}};
+    FlowOptions<2> o = Channel::flow();
+    o.dt = dt;
+    NavierStokes<2> ns(tree, o);
+    Adaptation<2> a(ns, {.interval_time = 0.03, .min_level = 2});
+    (void)a.refine_initial();
+    EXPECT_FALSE(a.after_step(0)) << "no step yet";
+    std::vector<double> adapted;
+    for (int step = 1; ns.time() < 0.1 - 1e-9; ++step) {
+      (void)ns.step();
+      if (a.after_step(step)) adapted.push_back(ns.time());
+    }
+    const std::vector<double> expected =
+        dt == 0.02 ? std::vector<double>{0.04, 0.06, 0.10} : std::vector<double>{0.03, 0.06, 0.09};
+    ASSERT_EQ(adapted.size(), expected.size()) << dt;
+    for (std::size_t i = 0; i < adapted.size(); ++i) EXPECT_NEAR(adapted[i], expected[i], 1e-12) << dt;
+  }
+}
+
 TEST(Adaptation, OffMeansUniformAtTheMaxLevel) {
   Channel c;
   Adaptation<2> a(c.ns, {.enabled = false, .min_level = 2, .wall_level = 5});
@@ -88,6 +112,9 @@ TEST(Adaptation, BadOptionsAreRefused) {
   EXPECT_THROW(Adaptation<2>(c.ns, {.interval = 0}), std::invalid_argument);
   EXPECT_THROW(Adaptation<2>(c.ns, {.wall_level = 7}), std::invalid_argument);
   EXPECT_THROW(Adaptation<2>(c.ns, {.min_level = -1}), std::invalid_argument);
+  EXPECT_THROW(Adaptation<2>(c.ns, {.interval = 2, .interval_time = 0.1}), std::invalid_argument);
+  EXPECT_THROW(Adaptation<2>(c.ns, {.interval_time = 0.1, .max_interval_time = 0.05}), std::invalid_argument);
+  EXPECT_THROW(Adaptation<2>(c.ns, {.interval_time = -0.1}), std::invalid_argument);
 }
 
 }  // namespace

@@ -133,6 +133,14 @@ TEST(io_case_errors, NegativeReViscosityOrCfl) {
               HasSubstr("adapt.velocity_tolerance_relative = -0.01: must be >= 0"));
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\ninterval = 4\nmax_interval = 2\n"),
               HasSubstr("adapt.max_interval = 2: must be 0 (off) or >= adapt.interval (4)"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\ninterval_time = -0.01\n"),
+              HasSubstr("adapt.interval_time = -0.01: must be >= 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\ninterval = 4\ninterval_time = 0.004\n"),
+              HasSubstr("adapt.interval_time = 0.004: replaces adapt.interval and adapt.max_interval"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\ninterval_time = 0.004\nmax_interval_time = 0.002\n"),
+              HasSubstr("adapt.max_interval_time = 0.002: must be 0 (off) or >= adapt.interval_time (0.004)"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmax_interval_time = 0.002\n"),
+              HasSubstr("adapt.max_interval_time = 0.002: needs adapt.interval_time > 0"));
 }
 
 // The ratios are read (the message quotes the value) but refused: nothing marks the inner
