@@ -10,6 +10,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
 #include "app_support.hpp"
 #include "io/case_config.hpp"
 #include "io/pvd_series.hpp"
@@ -148,32 +153,51 @@ using namespace testing;
 // adaptation may wait (max_interval 4, a 6-cell margin): it adapts after steps 4 and 8, so
 // the restart from step 5 must carry the steps since the last adaptation and the positions
 // then to adapt after step 8 again.
-// Issue 17: in simple shear (cases/shear_quick.toml, dx = a/8, 642 nodes) the cell-centred
-// coupling gains volume steadily (+0.093% at strain 0.5, +0.77% at 2); the staggered one
-// moves the nodes with the projected face velocity (-0.022% at 0.5, -0.18% at 2), and its
-// divergence-free form (the default) with an exactly divergence-free velocity (-0.045% at
-// 2; at dx = a/16 the volume then oscillates within +-0.052% over 10 strain units with the
-// tank-treading, without a trend: docs/numerics.md).
-TEST(AppCapsule, StaggeredCouplingKeepsTheVolumeInShear) {
+// Issue 17: in simple shear (cases/shear_quick.toml, dx = a/8, 642 nodes, Euler nodes) the
+// cell-centred coupling gains volume steadily: +0.31% at strain 1, +0.77% at 2, a trend of
+// +0.43% per unit strain (least squares over [0, 2]). The divergence-free face coupling (the
+// default) moves the nodes with an exactly divergence-free velocity; what is left is the
+// error of the P2 surface through them, which follows the shape and the node layout: at
+// dx = a/16 with 2562 nodes it oscillates within +-0.052% over 10 strain units with the
+// tank-treading period and ends at +0.014% (docs/numerics.md), no trend. Here, coarse and
+// short, it is -0.045% at strain 2 and its least-squares trend -0.017% per strain (measured):
+// the bounds are the fine run's envelope, doubled for the coarse mesh, and 20 times less
+// trend than the cells.
+TEST(AppCapsule, DivergenceFreeCouplingKeepsTheVolumeInShear) {
   const fs::path dir = scratch("shear_volume");
-  auto volume = [&](const std::string& name, const std::string& extra) {
-    const auto r = capsflow("run " + std::string(CAPSFLOW_CASES_DIR) + "/shear_quick.toml --quiet --set time.t_end=0.5" +
+  // volume_rel against strain (the shear rate is 1) at every diagnostics row.
+  auto history = [&](const std::string& name, const std::string& extra) {
+    const auto r = capsflow("run " + std::string(CAPSFLOW_CASES_DIR) +
+                                "/shear_quick.toml --quiet --set time.t_end=2 --set output.diagnostics_interval=50" +
                                 extra + " --out " + (dir / name).string(),
                             dir);
     EXPECT_EQ(r.status, 0) << r.err;
     const auto table = rows_of(dir / name / "diagnostics.csv");
     EXPECT_EQ(table[0][8], "volume_rel");
-    return std::stod(table.back()[8]);
+    std::vector<std::pair<double, double>> h;
+    for (std::size_t i = 1; i < table.size(); ++i) h.emplace_back(std::stod(table[i][1]), std::stod(table[i][8]));
+    return h;
   };
-  const double free = volume("divergence_free", ""),
-               faces = volume("faces", " --set capsule[0].divergence_free=false"),
-               cells = volume("cells", " --set capsule[0].staggered=false");
-  std::printf("volume_rel at strain 0.5: divergence-free %.3e, faces %.3e, cells %.3e\n", free, faces, cells);
-  EXPECT_GT(cells, 5e-4);
-  EXPECT_LT(std::abs(faces), cells / 3);
-  // Measured: -7.7e-5, -2.2e-4, +9.3e-4.
-  EXPECT_LT(std::abs(free), std::abs(faces) / 2);
-  EXPECT_LT(std::abs(free), cells / 8);
+  auto trend = [](const std::vector<std::pair<double, double>>& h) {  // least-squares slope
+    double mx = 0, my = 0;
+    for (const auto& [x, y] : h) mx += x, my += y;
+    mx /= static_cast<double>(h.size());
+    my /= static_cast<double>(h.size());
+    double sxy = 0, sxx = 0;
+    for (const auto& [x, y] : h) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
+    return sxy / sxx;
+  };
+  const auto free = history("divergence_free", ""), cells = history("cells", " --set capsule[0].staggered=false");
+  ASSERT_GE(free.size(), 40u);
+  ASSERT_GE(cells.size(), 40u);
+  const double free_trend = trend(free), cells_trend = trend(cells);
+  double free_max = 0.0;
+  for (const auto& [t, v] : free) free_max = std::max(free_max, std::abs(v));
+  std::printf("volume_rel trend per unit strain: divergence-free %.3e, cells %.3e (ratio %.1f); at strain 2 %.3e, %.3e\n",
+              free_trend, cells_trend, cells_trend / std::abs(free_trend), free.back().second, cells.back().second);
+  EXPECT_GT(cells_trend, 3e-3);  // today's drift, measured 4.3e-3
+  EXPECT_LT(std::abs(free_trend), cells_trend / 20);
+  EXPECT_LT(free_max, 2 * 5.2e-4);
 }
 
 // Issue 17: with time.cfl > 0 and no time.dt, the solver chooses dt for a capsule case:
@@ -251,6 +275,28 @@ TEST(AppCapsule, RestartBetweenAdaptationsRepeatsTheRunExactly) {
   const auto full = rows_of(dir / "full" / "diagnostics.csv");
   ASSERT_EQ(full.size(), 11u);
   expect_restart_repeats_run(dir, base, "checkpoint_000004.h5", full);
+}
+
+// Issue 17: the second-order scheme (midpoint nodes, Crank-Nicolson, carried faces) starts
+// each step from the last projected faces; the checkpoint keeps them (face_velocity), so a
+// restart repeats the run to the last digit: from step 4 (faces current) and from step 3
+// (just adapted: the faces carried through the adaptation).
+TEST(AppCapsule, SecondOrderSchemeRestartsExactly) {
+  for (const int at : {3, 4}) {
+    const fs::path dir = scratch(fmt::format("capsule_second_order_{}", at));
+    const std::string base =
+        "run " + std::string(CAPSFLOW_CASES_DIR) +
+        "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set time.dt=0.004 --set capsule[0].nodes=642 "
+        "--set time.t_end=0.04 --set output.vtu=false --set output.diagnostics_interval=1 "
+        "--set output.checkpoint=true --set adapt.interval=3 --set adapt.membrane_band=8 "
+        "--set time.node_scheme=\"midpoint\" --set fluid.crank_nicolson=true --set fluid.carry_faces=true " +
+        fmt::format("--set output.checkpoint_interval={} ", at);
+    const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto full = rows_of(dir / "full" / "diagnostics.csv");
+    ASSERT_EQ(full.size(), 11u);
+    expect_restart_repeats_run(dir, base, fmt::format("checkpoint_{:06d}.h5", at), full);
+  }
 }
 
 // The command's --adapt switch on the quick seed case (dx = 1/16, 642 nodes, 50 steps to
