@@ -163,12 +163,22 @@ using namespace testing;
 // short, it is -0.045% at strain 2 and its least-squares trend -0.017% per strain (measured):
 // the bounds are the fine run's envelope, doubled for the coarse mesh, and 20 times less
 // trend than the cells.
+// Under AddressSanitizer (the checked build) 4000 steps take over 5 minutes: the runs go to
+// strain 0.5 there, which exercises the same code, and only the Release build asserts the
+// trends (at 0.5 the divergence-free coupling is at -7.7e-5 against +9.3e-4 on cells).
+#if defined(__SANITIZE_ADDRESS__)
+constexpr double kShearStrain = 0.5;
+#else
+constexpr double kShearStrain = 2.0;
+#endif
+
 TEST(AppCapsule, DivergenceFreeCouplingKeepsTheVolumeInShear) {
   const fs::path dir = scratch("shear_volume");
   // volume_rel against strain (the shear rate is 1) at every diagnostics row.
   auto history = [&](const std::string& name, const std::string& extra) {
     const auto r = capsflow("run " + std::string(CAPSFLOW_CASES_DIR) +
-                                "/shear_quick.toml --quiet --set time.t_end=2 --set output.diagnostics_interval=50" +
+                                "/shear_quick.toml --quiet --set time.t_end=" + fmt::format("{}", kShearStrain) +
+                                " --set output.diagnostics_interval=50" +
                                 extra + " --out " + (dir / name).string(),
                             dir);
     EXPECT_EQ(r.status, 0) << r.err;
@@ -188,16 +198,21 @@ TEST(AppCapsule, DivergenceFreeCouplingKeepsTheVolumeInShear) {
     return sxy / sxx;
   };
   const auto free = history("divergence_free", ""), cells = history("cells", " --set capsule[0].staggered=false");
-  ASSERT_GE(free.size(), 40u);
-  ASSERT_GE(cells.size(), 40u);
+  ASSERT_GE(free.size(), 10u);
+  ASSERT_GE(cells.size(), 10u);
   const double free_trend = trend(free), cells_trend = trend(cells);
   double free_max = 0.0;
   for (const auto& [t, v] : free) free_max = std::max(free_max, std::abs(v));
-  std::printf("volume_rel trend per unit strain: divergence-free %.3e, cells %.3e (ratio %.1f); at strain 2 %.3e, %.3e\n",
-              free_trend, cells_trend, cells_trend / std::abs(free_trend), free.back().second, cells.back().second);
+  std::printf("volume_rel trend per unit strain: divergence-free %.3e, cells %.3e (ratio %.1f); at strain %g %.3e, %.3e\n",
+              free_trend, cells_trend, cells_trend / std::abs(free_trend), kShearStrain, free.back().second,
+              cells.back().second);
+  EXPECT_LT(free_max, 2 * 5.2e-4);
+  if (kShearStrain < 2.0) {
+    EXPECT_LT(std::abs(free.back().second), cells.back().second / 8);
+    return;
+  }
   EXPECT_GT(cells_trend, 3e-3);  // today's drift, measured 4.3e-3
   EXPECT_LT(std::abs(free_trend), cells_trend / 20);
-  EXPECT_LT(free_max, 2 * 5.2e-4);
 }
 
 // Issue 17: with time.cfl > 0 and no time.dt, the solver chooses dt for a capsule case:
