@@ -25,6 +25,8 @@ Adaptation<D>::Adaptation(NavierStokes<D>& ns, AdaptationOptions options) : ns_(
                                             options_.interval_time, options_.max_interval_time));
   if (options_.interval_time > 0.0 && (options_.interval != 1 || options_.max_interval != 0))
     throw std::invalid_argument("adaptation: an interval in time replaces the one in steps (interval 1, max_interval 0)");
+  if (options_.max_interval_time > 0.0 && options_.interval_time == 0.0)
+    throw std::invalid_argument("adaptation: max_interval_time needs interval_time > 0");
   if (options_.max_interval_time > 0.0 && options_.max_interval_time < options_.interval_time)
     throw std::invalid_argument(fmt::format("adaptation: max_interval_time {} must be 0 or >= interval_time {}",
                                             options_.max_interval_time, options_.interval_time));

@@ -115,6 +115,7 @@ TEST(Adaptation, BadOptionsAreRefused) {
   EXPECT_THROW(Adaptation<2>(c.ns, {.interval = 2, .interval_time = 0.1}), std::invalid_argument);
   EXPECT_THROW(Adaptation<2>(c.ns, {.interval_time = 0.1, .max_interval_time = 0.05}), std::invalid_argument);
   EXPECT_THROW(Adaptation<2>(c.ns, {.interval_time = -0.1}), std::invalid_argument);
+  EXPECT_THROW(Adaptation<2>(c.ns, {.max_interval_time = 0.1}), std::invalid_argument);
 }
 
 }  // namespace
