@@ -48,8 +48,11 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"on", "off"}));
   run->add_option("--set", request.overrides, "Override a key of the case file: --set fluid.Re=10 (repeatable)")
       ->type_name("KEY=VALUE");
-  run->add_option("--out", out, "Output directory");
-  run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case");
+  // An empty path (a shell variable that expanded to nothing) must not fall back to the
+  // default folder or to a fresh start: refused like any other bad argument.
+  const auto not_empty = [](const std::string& v) { return v.empty() ? std::string("the path is empty") : std::string(); };
+  run->add_option("--out", out, "Output directory")->check(not_empty);
+  run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case")->check(not_empty);
   run->add_flag("--quiet", request.quiet, "No progress line");
   run->add_option("--max-memory", max_memory,
                   "Refuse a run whose memory estimate exceeds this (e.g. 4G, 512M); runs are always refused "

@@ -98,6 +98,13 @@ TEST(AppErrors, BadCommandLineAndCorruptCheckpoint) {
   EXPECT_THAT(r.err, HasSubstr("--adapt"));
   r = capsflow("fly " + file.string(), dir);
   EXPECT_EQ(r.status, 2);
+  // An empty path (a variable that expanded to nothing) is neither a fresh start nor out/.
+  for (const char* empty : {" --restart ''", " --out ''"}) {
+    r = capsflow("run " + file.string() + " --quiet" + empty, dir);
+    EXPECT_EQ(r.status, 2) << empty << r.err;
+    EXPECT_THAT(r.err, HasSubstr("the path is empty"));
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
   write(dir, "broken.h5", "not an HDF5 file");
   r = capsflow("run " + file.string() + " --out " + (dir / "o").string() + " --restart " + (dir / "broken.h5").string(), dir);
   EXPECT_EQ(r.status, 2) << r.err;
