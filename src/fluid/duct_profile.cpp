@@ -1,5 +1,6 @@
 #include "fluid/duct_profile.hpp"
 
+#include <bit>
 #include <cmath>
 
 namespace capsflow::fluid {
@@ -27,6 +28,23 @@ double duct_flow_rate(double a, double b) {
   double sum = 0.0;
   for (int i = 1; i <= 4001; i += 2) sum += std::tanh(i * kPi * b / (2.0 * a)) / std::pow(double(i), 5);
   return 4.0 * b * a * a * a / 3.0 * (1.0 - 192.0 * a / (std::pow(kPi, 5) * b) * sum);
+}
+
+std::size_t DuctProfileMemo::PointHash::operator()(const std::pair<double, double>& p) const {
+  const std::uint64_t y = std::bit_cast<std::uint64_t>(p.first), z = std::bit_cast<std::uint64_t>(p.second);
+  return std::hash<std::uint64_t>{}(y ^ (z * 0x9e3779b97f4a7c15ULL + (y << 6) + (y >> 2)));
+}
+
+double DuctProfileMemo::operator()(double y, double z) const {
+  const std::pair<double, double> key{y, z};
+  {
+    const std::lock_guard<std::mutex> lock(memo_->mutex);
+    if (const auto it = memo_->values.find(key); it != memo_->values.end()) return it->second;
+  }
+  const double v = duct_velocity(y, z, a_, b_);  // outside the lock: other threads go on
+  const std::lock_guard<std::mutex> lock(memo_->mutex);
+  memo_->values.emplace(key, v);
+  return v;
 }
 
 }  // namespace capsflow::fluid

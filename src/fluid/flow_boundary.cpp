@@ -53,10 +53,11 @@ std::function<double(const tree::Point<D>&)> inflow_speed(const SideFlow<D>& s, 
       const bool swap = a > b;
       if (swap) std::swap(a, b);
       const double scale = mean / duct_mean_velocity(a, b);
+      const DuctProfileMemo profile(a, b);
       return [=](const tree::Point<D>& x) {
         double y = x[t1] - centre[t1], z = x[t2] - centre[t2];
         if (swap) std::swap(y, z);
-        return scale * duct_velocity(y, z, a, b);
+        return scale * profile(y, z);
       };
     }
   }

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <utility>
+#include <vector>
 
 #include "cavity.hpp"
 #include "fluid/duct_profile.hpp"
@@ -126,6 +128,23 @@ TEST(SquareDuct, SeriesMatchesReferenceTable) {
   EXPECT_NEAR(duct_velocity(0, 0, 1, 1), 0.294685413126055, 1e-9);
   EXPECT_NEAR(duct_flow_rate(1, 2) / 2, 0.914726708478, 1e-9);  // Q / (a^3 b) for b/a = 2
   EXPECT_NEAR(duct_velocity(1.0, 0.3, 1, 1), 0.0, 1e-15);  // no-slip wall
+}
+
+// The memo gives the series' values bit for bit, first call and repeated, from threads at once.
+TEST(SquareDuct, MemoizedProfileIsTheSeries) {
+  const DuctProfileMemo profile(0.5, 1.0);
+  std::vector<std::pair<double, double>> points;
+  for (int i = -8; i <= 8; ++i)
+    for (int j = -16; j <= 16; ++j) points.emplace_back((i + 0.5) / 16.0, j / 16.0);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<double> got(points.size());
+#pragma omp parallel for
+    for (std::size_t k = 0; k < points.size(); ++k) got[k] = profile(points[k].first, points[k].second);
+    for (std::size_t k = 0; k < points.size(); ++k)
+      ASSERT_EQ(got[k], duct_velocity(points[k].first, points[k].second, 0.5, 1.0)) << "pass " << pass << " point " << k;
+  }
+  const DuctProfileMemo copy = profile;  // shares the memo
+  EXPECT_EQ(copy(0.03125, 0.0), duct_velocity(0.03125, 0.0, 0.5, 1.0));
 }
 
 }  // namespace
