@@ -55,8 +55,8 @@ int main(int argc, char** argv) {
   run->add_option("--restart", restart, "Continue from a checkpoint_NNNNNN.h5 of this case")->check(not_empty);
   run->add_flag("--quiet", request.quiet, "No progress line");
   run->add_option("--max-memory", max_memory,
-                  "Refuse a run whose memory estimate exceeds this (e.g. 4G, 512M); runs are always refused "
-                  "when the estimate exceeds the machine's available memory")
+                  "Refuse a run whose memory estimate (all MPI ranks together) exceeds this (e.g. 4G, 512M); runs "
+                  "are always refused when a node cannot hold its ranks' share of the estimate")
       ->type_name("SIZE");
   run->add_flag("--force", request.force,
                 "Write into --out even if it holds another run (diagnostics.csv, case.toml, series.pvd or "

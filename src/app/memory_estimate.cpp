@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 
 #include <sys/resource.h>
@@ -12,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "app/output_dir.hpp"
+#include "parallel/reduce.hpp"
 
 namespace capsflow::app {
 
@@ -122,16 +124,30 @@ std::uint64_t parse_memory_size(const std::string& text) {
   return static_cast<std::uint64_t>(value * scale);
 }
 
-void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, const std::string& source) {
+void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, const std::string& source,
+                  const parallel::Comm& comm) {
   const MemoryEstimate e = estimate_memory(c);
-  const auto available = available_memory();
+  // What the run may use in all, from each node's memory over its share of the ranks (and
+  // each process's address-space limit over its 1/N): the tightest rank decides for all.
+  const double ranks = comm.size(), node_share = comm.ranks_on_this_node() / ranks;
+  const double inf = std::numeric_limits<double>::infinity();
+  const auto node_available = available_memory();
+  const double available =
+      parallel::global_min(comm, node_available ? *node_available / node_share : inf);
+  const auto left_here = address_space_left();
+  const double left = parallel::global_min(comm, left_here ? *left_here * ranks : inf);
+  const auto all_ranks = [&](double bytes) {
+    return ranks > 1 ? fmt::format("{} in all ({} on a node holding {} of the {} ranks)", human(bytes),
+                                   human(bytes * node_share), comm.ranks_on_this_node(), comm.size())
+                     : human(bytes);
+  };
   std::string over;
   if (limit && e.bytes > double(*limit))
     over = fmt::format("--max-memory {}", human(double(*limit)));
-  else if (available && e.bytes > *available)
-    over = fmt::format("the available memory, {}", human(*available));
-  else if (const auto left = address_space_left(); left && e.bytes - kFixedBytes > *left)
-    over = fmt::format("what the address-space limit (ulimit -v) leaves, {}", human(*left));
+  else if (e.bytes > available)
+    over = fmt::format("the available memory, {}", all_ranks(available));
+  else if (e.bytes - kFixedBytes > left)
+    over = fmt::format("what the address-space limit (ulimit -v) leaves, {}", all_ranks(left));
   if (over.empty()) return;
   throw RequestError(
       fmt::format("{}: memory estimate {} ({:.3g} cells on levels 0 to {} of the tree{}) exceeds {}; lower "

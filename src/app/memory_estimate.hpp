@@ -7,6 +7,7 @@
 #include <string>
 
 #include "io/case_config.hpp"
+#include "parallel/comm.hpp"
 
 namespace capsflow::app {
 
@@ -31,8 +32,12 @@ struct MemoryEstimate {
 // std::invalid_argument for anything else.
 [[nodiscard]] std::uint64_t parse_memory_size(const std::string& text);
 
-// Throws RequestError (output_dir.hpp) with the estimate when it exceeds `limit` or the
-// available memory; the message begins with `source` (the case file).
-void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, const std::string& source);
+// Throws RequestError (output_dir.hpp) with the estimate when it exceeds `limit` (the whole
+// run's memory, every rank together) or what the machines have: on N ranks each rank holds
+// about 1/N of the cells (the start too: no rank builds the whole forest), so a node must
+// hold its ranks' share, and the run fits if every node does. The message begins with
+// `source` (the case file). Collective over comm: every rank takes the same decision.
+void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, const std::string& source,
+                  const parallel::Comm& comm);
 
 }  // namespace capsflow::app

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <limits>
 
@@ -124,10 +125,11 @@ class FlowRun {
           }
       }
     } else {
+      if (comm_.size() > 1) distribute_coarse_start();
       (void)adaptation_.refine_initial();
     }
-    // On N ranks every rank has built (or read) the same forest; each keeps its part.
-    if (comm_.size() > 1) forest_ = tree::distribute(comm_, tree_);
+    // A restart on N ranks: every rank has read the same forest; each keeps its part.
+    if (comm_.size() > 1 && !forest_) forest_ = tree::distribute(comm_, tree_);
     // Diagnostics and the series are rank 0's.
     std::optional<io::DiagnosticsCsv> diagnostics;
     std::optional<io::PvdSeries> series;
@@ -326,6 +328,25 @@ class FlowRun {
   parallel::Comm comm_;
   tree::Tree<D> tree_;
   std::unique_ptr<tree::DistributedForest<D>> forest_;  // N ranks: this rank's part of tree_
+
+  // N ranks, a new run: every rank builds the same coarse forest, uniform to the level every
+  // initial leaf reaches anyway (or shallower, once it has kStartLeavesPerRank leaves per
+  // rank), and keeps its part; the initial refinement then runs on the distributed tree,
+  // each rank refining its own leaves. No rank ever holds the whole initial forest (at 10^8
+  // cells it would not fit one node), and the forest is the one a single rank builds:
+  // refinement to forced levels does not depend on the order it is done in.
+  static constexpr std::int64_t kStartLeavesPerRank = 64;
+  void distribute_coarse_start() {
+    std::int64_t leaves = 1;
+    for (int d = 0; d < D; ++d) leaves *= tree_.options().roots[d];
+    int level = 0;
+    while (level < adaptation_.coarsest_initial_level() && leaves < kStartLeavesPerRank * comm_.size()) {
+      leaves <<= D;
+      ++level;
+    }
+    (void)tree_.refine_to([level](const tree::Box<D>&) { return level; });
+    forest_ = tree::distribute(comm_, tree_);
+  }
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
@@ -344,8 +365,8 @@ void run_case(const RunRequest& req) {
     throw io::CheckpointError(fmt::format("{}: no such checkpoint file", req.restart->string()));
   if (req.restart && fs::is_directory(*req.restart))
     throw io::CheckpointError(fmt::format("{}: is a directory, not a checkpoint file", req.restart->string()));
-  check_memory(c, req.max_memory, req.case_file.string());
   const parallel::Comm comm = parallel::Comm::world();
+  check_memory(c, req.max_memory, req.case_file.string(), comm);
   if (comm.size() > 1 && !c.capsules.empty())
     throw io::CaseError(fmt::format("{}: {} capsule(s) on {} MPI ranks: capsules run on one rank until they are "
                                     "distributed (docs/parallel.md); run without mpirun, with OMP_NUM_THREADS for the cores",

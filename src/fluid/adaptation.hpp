@@ -71,6 +71,12 @@ class Adaptation {
   // Before the first step: forced refinement until settled (or uniform at the max level
   // when adaptation is off).
   tree::AdaptCounts refine_initial();
+  // A level every leaf of refine_initial's tree reaches (min_level, or the max level when
+  // adaptation is off): refining uniformly to it first changes nothing of that tree, so a
+  // distributed start builds only this much on every rank and refines the rest in parts.
+  [[nodiscard]] int coarsest_initial_level() const {
+    return options_.enabled ? options_.min_level : ns_.tree().max_level();
+  }
   // After step number `step` of the run: adapts if due; returns whether it did.
   bool after_step(std::int64_t step);
   // One adaptation now (wavelets, forced levels, then stencil passes if needed).

@@ -30,6 +30,17 @@ void Comm::barrier() const {
   if (distributed()) MPI_Barrier(handle_);
 }
 
+int Comm::ranks_on_this_node() const {
+  if (!distributed()) return 1;
+  MPI_Comm node = MPI_COMM_NULL;
+  if (MPI_Comm_split_type(handle_, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node) != MPI_SUCCESS)
+    throw std::runtime_error("MPI_Comm_split_type (ranks on this node) failed");
+  int n = 1;
+  MPI_Comm_size(node, &n);
+  MPI_Comm_free(&node);
+  return n;
+}
+
 MpiSession::MpiSession(int& argc, char**& argv) {
   if (!launched_by_mpi()) return;
   int provided = 0;

@@ -22,6 +22,8 @@ class Comm {
   [[nodiscard]] bool distributed() const { return handle_ != MPI_COMM_NULL; }
   [[nodiscard]] MPI_Comm handle() const { return handle_; }
   void barrier() const;
+  // Ranks of this communicator on this rank's node (shared memory): 1 without MPI. Collective.
+  [[nodiscard]] int ranks_on_this_node() const;
 
  private:
   Comm(MPI_Comm handle, int rank, int size) : handle_(handle), rank_(rank), size_(size) {}
