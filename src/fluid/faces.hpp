@@ -42,16 +42,19 @@ void resize(FaceField<D>& f, const tree::Tree<D>& t) {
 
 // Calls f(d, lower, upper, h, level) for every fine face: lower and upper are the
 // same-level cells on either side along d, h their size; the face's slot is `upper`.
-// Parallel over leaves.
+// Parallel over leaves. On N ranks, the faces of owned and ghost leaves: an owned leaf reads
+// its own slots and its upper neighbours' (owned or ghosts, never placeholders), so the
+// placeholders' faces, which nothing reads, are skipped (a fifth of a seed-shell rank's leaves).
 template <int D, class F>
 void for_each_face(const tree::Tree<D>& t, F&& f) {
+  const bool skip_placeholders = t.distributed();
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double h = t.cell_size(l);
     const Index n = lv.n_active, base = lv.base, active_end = lv.active_end(), halo_begin = lv.halo_begin();
 #pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
     for (Index i = 0; i < n; ++i) {
-      if (!lv.leaf[i]) continue;
+      if (!lv.leaf[i] || (skip_placeholders && !t.holds(base + i))) continue;
       const Index c = base + i;
       const Index* row = lv.face_row(c);
       for (int d = 0; d < D; ++d) {
@@ -68,12 +71,13 @@ template <int D>
 void restrict_faces(const tree::Tree<D>& t, FaceField<D>& uf) {
   constexpr int C = tree::kChildren<D>;
   CAPSFLOW_ASSERT(spans_cells<D>(uf, t), "restrict_faces: the face field does not have the tree's num_cells slots");
+  const bool skip_placeholders = t.distributed();  // as for_each_face: nothing reads their faces
   for (int l = 0; l < t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const Index n = lv.n_active, base = lv.base;
 #pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
     for (Index i = 0; i < n; ++i) {
-      if (lv.leaf[i] != tree::Level<D>::kLeafNextToFiner) continue;
+      if (lv.leaf[i] != tree::Level<D>::kLeafNextToFiner || (skip_placeholders && !t.holds(base + i))) continue;
       const Index c = base + i;
       const Index* row = lv.face_row(c);
       for (int d = 0; d < D; ++d) {

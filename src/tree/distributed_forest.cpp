@@ -1,6 +1,7 @@
 #include "tree/distributed_forest.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <stdexcept>
 
@@ -289,9 +290,19 @@ void DistributedForest<D>::attach(Tree<D>& t) {
   level_peers_.assign(static_cast<std::size_t>(top) + 1, {});
   for (const PeerCells& pc : peer_cells_) {
     std::vector<Peer> per_level(static_cast<std::size_t>(top) + 1);
-    for (const CurveCell& c : pc.send) per_level[static_cast<std::size_t>(c.level)].send.push_back(local_index(t, c));
-    for (const CurveCell& c : pc.receive)
-      per_level[static_cast<std::size_t>(c.level)].receive.push_back(local_index(t, c));
+    const auto colour = [&](const CurveCell& c) {
+      return static_cast<std::size_t>(std::popcount(key_of<D>(c, top) & (Key{kChildren<D>} - 1)) & 1);
+    };
+    for (const CurveCell& c : pc.send) {
+      Peer& p = per_level[static_cast<std::size_t>(c.level)];
+      p.send.push_back(local_index(t, c));
+      p.send_colour[colour(c)].push_back(p.send.back());
+    }
+    for (const CurveCell& c : pc.receive) {
+      Peer& p = per_level[static_cast<std::size_t>(c.level)];
+      p.receive.push_back(local_index(t, c));
+      p.receive_colour[colour(c)].push_back(p.receive.back());
+    }
     for (int l = 0; l <= top; ++l) {
       Peer& p = per_level[static_cast<std::size_t>(l)];
       if (p.send.empty() && p.receive.empty()) continue;
@@ -324,15 +335,18 @@ void DistributedForest<D>::attach(Tree<D>& t) {
         if (p.rank == q) g.receive.insert(g.receive.end(), p.receive.begin(), p.receive.end());
     }
   }
-  std::vector<std::uint8_t> owned(static_cast<std::size_t>(t.num_cells()), 0);
+  std::vector<std::uint8_t> roles(static_cast<std::size_t>(t.num_cells()), Tree<D>::kPlaceholder);
+  for (const auto& peers : level_peers_)
+    for (const Peer& p : peers)
+      for (const Index c : p.receive) roles[static_cast<std::size_t>(c)] = Tree<D>::kGhostCell;
   for (int l = 0; l <= t.depth(); ++l) {
     const Level<D>& lv = t.level(l);
     for (Index i = 0; i < lv.n_active; ++i) {
       const Key position = curve_position<D>(l, lv.keys[static_cast<std::size_t>(i)], top);
-      owned[static_cast<std::size_t>(lv.base + i)] = position >= begin && position < end;
+      if (position >= begin && position < end) roles[static_cast<std::size_t>(lv.base + i)] = Tree<D>::kOwnedCell;
     }
   }
-  t.set_distribution(this, std::move(owned), this);
+  t.set_distribution(this, std::move(roles), this);
 }
 
 template <int D>
@@ -355,21 +369,40 @@ void DistributedForest<D>::exchange(int level, std::span<double> v) const {
       if (g.receive[i] != kNone) v[static_cast<std::size_t>(g.receive[i])] = gather_receive_[i];
     return;
   }
+  exchange_lists(level, v, exchanges_, [](const Peer& p) { return std::pair{&p.send, &p.receive}; });
+}
+
+template <int D>
+void DistributedForest<D>::exchange_colour(int level, std::span<double> v, int colour) const {
+  if (level < replicated_levels_) {  // no lists by colour there: the whole level
+    exchange(level, v);
+    return;
+  }
+  const auto k = static_cast<std::size_t>(colour & 1);
+  exchange_lists(level, v, colour_exchanges_, [k](const Peer& p) { return std::pair{&p.send_colour[k], &p.receive_colour[k]}; });
+}
+
+template <int D>
+template <class Pick>
+void DistributedForest<D>::exchange_lists(int level, std::span<double> v, std::vector<std::int64_t>& counts,
+                                          Pick pick) const {
+  if (level < 0 || level >= static_cast<int>(level_peers_.size())) return;
   const auto& peers = level_peers_[static_cast<std::size_t>(level)];
   if (peers.empty()) return;
-  if (exchanges_.size() < level_peers_.size()) exchanges_.resize(level_peers_.size(), 0);
-  ++exchanges_[static_cast<std::size_t>(level)];
+  if (counts.size() < level_peers_.size()) counts.resize(level_peers_.size(), 0);
+  ++counts[static_cast<std::size_t>(level)];
   send_buffers_.resize(peers.size());
   receive_buffers_.resize(peers.size());
   std::vector<MPI_Request>& requests = requests_;  // kept: this runs ~1000 times a step
   requests.clear();
   const int tag = kTagBase + level;
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    if (peers[k].receive.empty()) continue;
+    const std::vector<Index>& receive = *pick(peers[k]).second;
+    if (receive.empty()) continue;
     // Buffers only grow: the levels take turns with them, and resizing up and down
     // zero-filled them each time (a tenth of the exchange's cost on 128^3).
     auto& b = receive_buffers_[k];
-    const std::size_t n = peers[k].receive.size();
+    const std::size_t n = receive.size();
     if (b.size() < n) b.resize(n);
     requests.emplace_back();
     check(MPI_Irecv(b.data(), static_cast<int>(n), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
@@ -377,11 +410,12 @@ void DistributedForest<D>::exchange(int level, std::span<double> v) const {
           "MPI_Irecv");
   }
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    if (peers[k].send.empty()) continue;
+    const std::vector<Index>& send = *pick(peers[k]).first;
+    if (send.empty()) continue;
     auto& b = send_buffers_[k];
-    const std::size_t n = peers[k].send.size();
+    const std::size_t n = send.size();
     if (b.size() < n) b.resize(n);
-    for (std::size_t i = 0; i < n; ++i) b[i] = v[static_cast<std::size_t>(peers[k].send[i])];
+    for (std::size_t i = 0; i < n; ++i) b[i] = v[static_cast<std::size_t>(send[i])];
     values_sent_ += static_cast<std::int64_t>(n);
     requests.emplace_back();
     check(MPI_Isend(b.data(), static_cast<int>(n), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
@@ -393,7 +427,8 @@ void DistributedForest<D>::exchange(int level, std::span<double> v) const {
   waiting_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (std::size_t k = 0; k < peers.size(); ++k) {
     const auto& b = receive_buffers_[k];
-    for (std::size_t i = 0; i < peers[k].receive.size(); ++i) v[static_cast<std::size_t>(peers[k].receive[i])] = b[i];
+    const std::vector<Index>& receive = *pick(peers[k]).second;
+    for (std::size_t i = 0; i < receive.size(); ++i) v[static_cast<std::size_t>(receive[i])] = b[i];
   }
 }
 
@@ -582,6 +617,7 @@ typename DistributedForest<D>::Traffic DistributedForest<D>::traffic() const {
     out.messages_per_level.push_back(messages);
     const std::size_t l = out.ghosts_per_level.size() - 1;
     out.exchanges_per_level.push_back(l < exchanges_.size() ? exchanges_[l] : 0);
+    out.colour_exchanges_per_level.push_back(l < colour_exchanges_.size() ? colour_exchanges_[l] : 0);
   }
   return out;
 }

@@ -26,6 +26,7 @@
 // owned cells read only owned or ghost cells, which hold their owners' values after each
 // exchange, so an owned cell computes what one rank computes; reductions take the owned
 // leaves only.
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -68,6 +69,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
 
   // Distribution
   void exchange(int level, std::span<double> v) const override;
+  void exchange_colour(int level, std::span<double> v, int colour) const override;
   double sum(const parallel::ExactSum& local) const override;
   double max(double local) const override;
   std::int64_t sum(std::int64_t local) const override;
@@ -108,6 +110,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
     std::int64_t messages = 0;         // sent by one exchange of every level
     std::vector<std::int64_t> ghosts_per_level, messages_per_level;
     std::vector<std::int64_t> exchanges_per_level;  // exchange() calls so far (with peers)
+    std::vector<std::int64_t> colour_exchanges_per_level;  // exchange_colour() calls (one colour)
   };
   [[nodiscard]] Traffic traffic() const;
   // Seconds spent in MPI_Waitall and values sent, since construction.
@@ -122,7 +125,14 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   struct Peer {
     int rank = 0;
     std::vector<Index> send, receive;  // local indices
+    // The same lists split by red-black colour (both sides split the same curve-ordered
+    // lists by the same rule, so they stay matched).
+    std::array<std::vector<Index>, 2> send_colour, receive_colour;
   };
+  // exchange() and exchange_colour(): one message per peer with the lists `pick` gives,
+  // counted in counts[level].
+  template <class Pick>
+  void exchange_lists(int level, std::span<double> v, std::vector<std::int64_t>& counts, Pick pick) const;
   // Builds the plan for these owned leaves (the constructor's work, again after an adapt).
   void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
   // The weight of each of these leaves.
@@ -154,7 +164,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   mutable std::vector<std::vector<double>> send_buffers_, receive_buffers_;
   mutable std::vector<MPI_Request> requests_;
   mutable double waiting_ = 0.0;
-  mutable std::vector<std::int64_t> exchanges_;  // per level
+  mutable std::vector<std::int64_t> exchanges_, colour_exchanges_;  // per level
   mutable std::int64_t values_sent_ = 0;
 };
 

@@ -188,6 +188,10 @@ class Distribution {
   // Every ghost cell of level l (a cell of another rank that a stencil of this rank reads)
   // gets its owner's value of v.
   virtual void exchange(int level, std::span<double> v) const = 0;
+  // The same for the ghosts of one red-black colour only (the parity of the cell's
+  // coordinate sum, Level::keys: popcount(key & (2^D - 1)) & 1): after a half-sweep that
+  // changed that colour alone, half the values.
+  virtual void exchange_colour(int level, std::span<double> v, int colour) const = 0;
   // One local value per rank combined over the ranks (parallel/reduce.hpp); sums exact.
   virtual double sum(const parallel::ExactSum& local) const = 0;
   virtual double max(double local) const = 0;  // NaN from any rank wins
@@ -231,13 +235,19 @@ class Tree {
   std::span<const Index> leaves() const { return leaves_; }
 
   // --- distribution (one rank: no distribution, every cell owned)
-  // Makes this tree the local tree of a partitioned run: `owned` has one entry per cell
-  // (nonzero: this rank owns it; only active cells are read). Collective (the global depth).
-  void set_distribution(const Distribution* d, std::vector<std::uint8_t> owned,
+  // What a cell of a local tree is to this rank (only active cells are read).
+  enum CellRole : std::uint8_t { kPlaceholder = 0, kOwnedCell = 1, kGhostCell = 2 };
+  // Makes this tree the local tree of a partitioned run: `roles` has one CellRole per cell.
+  // Collective (the global depth).
+  void set_distribution(const Distribution* d, std::vector<std::uint8_t> roles,
                         DistributedAdaptation<D>* adaptation = nullptr);
   const Distribution* distribution() const { return dist_; }
   bool distributed() const { return dist_ != nullptr; }
-  bool owns(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] != 0; }
+  bool owns(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] == kOwnedCell; }
+  // Whether c holds a real value after an exchange (owned, or a ghost of another rank's
+  // cell), not a placeholder: loops whose values are read by owned cells' stencils but not
+  // exchanged (the face loops) skip the placeholders.
+  bool holds(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] != kPlaceholder; }
   // The leaves this rank computes and reduces over: every leaf on one rank.
   std::span<const Index> owned_leaves() const { return dist_ ? std::span<const Index>(owned_leaves_) : leaves_; }
   // The sibling groups [first, second) of level l >= 1 that hold every cell this rank owns
@@ -255,6 +265,9 @@ class Tree {
   bool replicated_level(int l) const { return dist_ != nullptr && dist_->replicated(l); }
   void exchange_level(int l, std::span<double> v) const {
     if (dist_) dist_->exchange(l, v);
+  }
+  void exchange_level_colour(int l, std::span<double> v, int colour) const {
+    if (dist_) dist_->exchange_colour(l, v, colour);
   }
   // Ghosts of every level, coarse to fine.
   void exchange_all(std::span<double> v) const {
@@ -410,9 +423,15 @@ class Tree {
   int leaf_sync_restrict_from_ = 0, leaf_sync_exchange_from_ = 0;
   const Distribution* dist_ = nullptr;
   DistributedAdaptation<D>* dist_adapt_ = nullptr;
-  std::vector<std::uint8_t> owned_;  // per cell, distributed only
+  std::vector<std::uint8_t> owned_;  // per cell, distributed only: its CellRole
   std::vector<Index> owned_leaves_;
   std::vector<std::pair<Index, Index>> owned_groups_;  // per level, distributed only
+  // Per level, distributed only: the halo groups (all, and those of Level::halo_read) whose
+  // coarse leaf holds a real value (owned or ghost). The halos of placeholders are never
+  // read by a stencil whose result reaches an owned cell (the ghost layer holds the coarse
+  // block of every halo an owned or ghost stencil reads: distributed_forest.hpp), so
+  // fill_halo skips them.
+  std::array<std::vector<std::vector<Index>>, 2> held_halo_;  // [HaloCells], then level
   Index num_cells_ = 0;
 
   std::vector<FieldSpec<D>> fields_;

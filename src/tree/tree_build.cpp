@@ -411,7 +411,7 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
 }
 
 template <int D>
-void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> owned,
+void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> roles,
                                DistributedAdaptation<D>* adaptation) {
   dist_adapt_ = adaptation;
   if (d == nullptr) {
@@ -422,23 +422,33 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
     global_depth_ = depth_;
     return;
   }
-  if (owned.size() != static_cast<std::size_t>(num_cells_))
-    throw std::invalid_argument("Tree::set_distribution: the owned mask needs one entry per cell");
+  if (roles.size() != static_cast<std::size_t>(num_cells_))
+    throw std::invalid_argument("Tree::set_distribution: the roles need one entry per cell");
   dist_ = d;
-  owned_ = std::move(owned);
+  owned_ = std::move(roles);
   owned_leaves_.clear();
   for (const Index c : leaves_)
-    if (owned_[static_cast<std::size_t>(c)]) owned_leaves_.push_back(c);
+    if (owns(c)) owned_leaves_.push_back(c);
   owned_groups_.assign(static_cast<std::size_t>(depth_) + 1, {0, 0});
   for (int l = 1; l <= depth_; ++l) {
     const Level<D>& lv = levels_[l];
     Index first = lv.n_active, last = -1;
     for (Index i = 0; i < lv.n_active; ++i)
-      if (owned_[static_cast<std::size_t>(lv.base + i)]) {
+      if (owns(lv.base + i)) {
         first = std::min(first, i);
         last = i;
       }
     if (last >= 0) owned_groups_[static_cast<std::size_t>(l)] = {first / kChildren<D>, last / kChildren<D> + 1};
+  }
+  for (auto& lists : held_halo_) lists.assign(static_cast<std::size_t>(depth_) + 1, {});
+  for (int l = 1; l <= depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    auto& all = held_halo_[static_cast<std::size_t>(HaloCells::all)][static_cast<std::size_t>(l)];
+    auto& read = held_halo_[static_cast<std::size_t>(HaloCells::face_read)][static_cast<std::size_t>(l)];
+    for (Index g = 0; g < lv.n_halo / kChildren<D>; ++g)
+      if (holds(lv.halo_parent[static_cast<std::size_t>(g)])) all.push_back(g);
+    for (const Index g : lv.halo_read)
+      if (holds(lv.halo_parent[static_cast<std::size_t>(g)])) read.push_back(g);
   }
   global_depth_ = static_cast<int>(d->max(static_cast<std::int64_t>(depth_)));
   // The halos owned cells read, and the owned leaves' levels (sync_leaf_neighbors): the
@@ -448,7 +458,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
   for (int l = 1; l <= depth_ && reads == depth_; ++l) {
     const Level<D>& lv = levels_[l];
     for (Index i = 0; i < lv.n_active && reads == depth_; ++i) {
-      if (!owned_[static_cast<std::size_t>(lv.base + i)]) continue;
+      if (!owns(lv.base + i)) continue;
       const Index* row = lv.face_row(lv.base + i);
       for (int k = 0; k < kFaces<D>; ++k)
         if (row[k] >= lv.halo_begin() && row[k] < lv.halo_end()) reads = l - 1;

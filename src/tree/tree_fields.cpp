@@ -83,9 +83,12 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells wh
   if (l <= 0 || l > depth_) return;
   const Level<D>& lv = levels_[l];
   const Level<D>& coarse = levels_[l - 1];
-  const bool all = which == HaloCells::all;
-  const Index groups = all ? lv.n_halo / C : static_cast<Index>(lv.halo_read.size());
-  const Index* listed = lv.halo_read.data();
+  // One rank: every group, or Level::halo_read; N ranks: those whose coarse leaf is real.
+  const bool all = which == HaloCells::all && !dist_;
+  const std::vector<Index>& list =
+      dist_ ? held_halo_[static_cast<std::size_t>(which)][static_cast<std::size_t>(l)] : lv.halo_read;
+  const Index groups = all ? lv.n_halo / C : static_cast<Index>(list.size());
+  const Index* listed = list.data();
   const Index first = lv.halo_begin();
   if (p == Prolongation::quadratic) {
 #pragma omp parallel for schedule(static) if (groups * C > kParallelMin)

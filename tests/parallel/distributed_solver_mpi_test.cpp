@@ -4,6 +4,7 @@
 // residual histories and the flow's values match the serial ones to 1e-12 relative.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -90,6 +91,32 @@ void check_ghosts(const TreeOptions<D>& o) {
   EXPECT_EQ(received, forest->traffic().ghost_cells);  // each ghost once, at its level
   if (comm.size() > 1) {
     EXPECT_GT(forest->traffic().ghost_cells, 0);
+  }
+  // One colour's exchange (after a red-black half-sweep): every ghost of that colour gets
+  // its owner's new value, the other colour's ghosts keep theirs, and the two colours'
+  // exchanges together bring every ghost once.
+  auto colour_of = [&](Index c) {
+    const int l = t.level_of(c);
+    return std::popcount(t.level(l).keys[static_cast<std::size_t>(c - t.level(l).base)] & (kChildren<D> - 1)) & 1;
+  };
+  for (int colour = 0; colour < 2; ++colour) {
+    std::vector<double> w = v;
+    for (int l = 0; l <= t.depth(); ++l)
+      for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c)
+        if (t.owns(c) && colour_of(c) == colour) w[static_cast<std::size_t>(c)] = -value(c);
+    for (int l = 0; l <= t.depth(); ++l) t.exchange_level_colour(l, w, colour);
+    std::int64_t stale = 0, touched = 0;
+    for (int l = 0; l <= t.depth(); ++l)
+      for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c) {
+        if (t.owns(c) || std::isnan(v[static_cast<std::size_t>(c)])) continue;
+        const double expected = colour_of(c) == colour ? -value(c) : value(c);
+        if (w[static_cast<std::size_t>(c)] != expected) ++stale;
+        if (colour_of(c) == colour) ++touched;
+      }
+    EXPECT_EQ(stale, 0) << "colour " << colour << ", rank " << comm.rank();
+    if (comm.size() > 1 && t.depth() > 2) {
+      EXPECT_GT(touched, 0);
+    }
   }
   // Gathered on rank 0, the owned values are the serial forest's leaves again.
   const FieldId f = t.add_field({.name = "v"});

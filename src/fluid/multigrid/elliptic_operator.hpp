@@ -134,12 +134,13 @@ class EllipticOperator {
         // touches, so black cells never read the ghost of a red one.
         // Distributed: each colour reads only the other one, so an exchange after each
         // gives every rank the numbers of one rank (a replicated level: every rank relaxes
-        // every cell, with no exchange).
+        // every cell, with no exchange). A half-sweep changes its colour only: the ghosts
+        // of the other one already hold their owners' values, and only half are sent.
         const bool exchange = !tree_.replicated_level(l);
         relax_colour<0>(l, lv, diag, da, res, {});
-        if (exchange) tree_.exchange_level(l, da);
+        if (exchange) tree_.exchange_level_colour(l, da, 0);
         relax_colour<1>(l, lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
-        if (exchange) tree_.exchange_level(l, da);
+        if (exchange) tree_.exchange_level_colour(l, da, 1);
       } else {
         const Index n = lv.n_active, base = lv.base;
         const double w = opt.jacobi_weight;
