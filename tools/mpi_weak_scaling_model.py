@@ -17,7 +17,8 @@ BENCH_LINES: output lines of `capsflow_mpi_bench uniform128 stokes STEPS` on 1 r
   are slabs, quarters columns) for P <= 8, and 1 beyond (the busiest rank is inside the
   domain, its whole shell is ghosts); neighbour ranks min(26, P - 1);
 - an exchange costs alpha per message and beta per byte; the exchanges per step and level
-  are the measured ones; the compute time per cell and step is the 1-rank run's; no
+  are the measured ones, those after a red-black half-sweep carrying one colour (half the
+  ghosts); the compute time per cell and step is the 1-rank run's; no
   overlap of messages with work.
 Prints, per rank count, the step time split into compute and messages, the level whose
 messages cost most, and the efficiency; and checks the ghost model against the ranks
@@ -65,6 +66,8 @@ def main():
     ref = many[0]
     exchanges = ints(ref["exchanges_per_step_per_level"])
     e_fine, e_mid, e_rep = exchanges[-1], max(exchanges[1:-1] or [exchanges[-1]]), exchanges[0]
+    colour = ints(ref.get("colour_exchanges_per_step_per_level", "")) or [0] * len(exchanges)
+    c_fine, c_mid = colour[-1], max(colour[1:-1] or [colour[-1]])
 
     # Shape factor of the ghost shells, from the measured non-replicated levels.
     print("ghost cells of the busiest rank, measured against the cube-shell model (w = 2 finest, 3 above):")
@@ -84,8 +87,8 @@ def main():
 
     n = cells / int(ref["ranks"])  # finest cells per rank, kept in weak scaling
     print(f"\nweak scaling at {n:.3g} finest cells per rank, alpha = {alpha:g} s, beta = {beta:g} s/B, "
-          f"{t_cell * 1e9:.1f} ns per cell and step, exchanges per step: finest {e_fine}, others {e_mid}, "
-          f"replicated {e_rep}")
+          f"{t_cell * 1e9:.1f} ns per cell and step, exchanges per step: finest {e_fine} ({c_fine} one-colour), "
+          f"others {e_mid} ({c_mid} one-colour), replicated {e_rep}")
     print(f"{'P':>5} {'levels':>6} {'compute s':>10} {'messages s':>10} {'worst level':>12} {'eff p2p':>8} "
           f"{'eff allgather':>13}")
     detail = []
@@ -105,8 +108,10 @@ def main():
                 e = e_rep
             else:
                 g = (factor if p <= 8 else 1.0) * shell(total / p, 2 if l == levels else 3)
-                cost_p2p = cost_ag = alpha * min(26, p - 1) + beta * 8 * g
                 e = e_fine if l == levels else e_mid
+                halves = c_fine if l == levels else c_mid  # of e, one-colour exchanges
+                # per exchange, averaged: alpha per message, beta per byte of the ghosts sent
+                cost_p2p = cost_ag = alpha * min(26, p - 1) + beta * 8 * g * (1 - 0.5 * halves / e)
             comm_p2p += e * cost_p2p
             comm_ag += e * cost_ag
             worst = max(worst, (e * cost_ag, l))

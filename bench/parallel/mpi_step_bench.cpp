@@ -5,7 +5,8 @@
 // each as unsteady Stokes ("stokes") or Navier-Stokes ("ns"). Prints one line of
 // key=value: seconds per step (the slowest rank, after one warm-up step), values sent per
 // step by the busiest rank, the fraction of the step that rank spent waiting on messages,
-// the ghost cells per level, leaves, and the fraction of the step the exchanges cost when
+// the ghost cells per level, the exchanges per step and level (all; of them, one-colour
+// ones after a red-black half-sweep, half the cells), leaves, and the fraction of the step the exchanges cost when
 // timed alone (no imbalance: what overlapping them with interior work could hide at most).
 #include <mpi.h>
 
@@ -66,7 +67,7 @@ int main(int argc, char** argv) {
   wait_fraction = parallel::global_max(comm, wait_fraction);
   const double busiest = parallel::global_max(comm, sent);
   // Per level (the busiest rank's): ghost cells, neighbour ranks, exchanges per step.
-  std::string per_level, messages, exchanges;
+  std::string per_level, messages, exchanges, colour_exchanges;
   if (forest) {
     const auto traffic = forest->traffic();
     for (std::size_t l = 0; l < traffic.ghosts_per_level.size(); ++l) {
@@ -76,6 +77,7 @@ int main(int argc, char** argv) {
       exchanges += sep + std::to_string(parallel::global_max(comm, traffic.exchanges_per_level[l] +
                                                                           traffic.colour_exchanges_per_level[l]) /
                                         (steps + 1));
+      colour_exchanges += sep + std::to_string(parallel::global_max(comm, traffic.colour_exchanges_per_level[l]) / (steps + 1));
     }
   }
   // What the messages alone cost: each level's exchange timed back to back (ranks in step,
@@ -106,9 +108,11 @@ int main(int argc, char** argv) {
   if (comm.is_root())
     std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
                 "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f ghosts_per_level=%s "
-                "neighbours_per_level=%s exchanges_per_step_per_level=%s exchange_fraction=%.3f\n",
+                "neighbours_per_level=%s exchanges_per_step_per_level=%s colour_exchanges_per_step_per_level=%s "
+                "exchange_fraction=%.3f\n",
                 which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
                 leaves, seconds, double(cycles) / steps, busiest, 8 * busiest,
-                wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), exchange_seconds / seconds);
+                wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), colour_exchanges.c_str(),
+                exchange_seconds / seconds);
   return 0;
 }
