@@ -54,12 +54,16 @@ std::pair<double, double> leaf_integral(const tree::Tree<D>& t, F&& f) {
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double vol = std::pow(t.cell_size(l), D);
-#pragma omp parallel if (lv.n_active > tree::kParallelMin)
+    // The sibling groups holding the owned cells (the whole level on one rank).
+    const auto groups = t.owned_groups(l);
+    const tree::Index begin = l == 0 ? 0 : groups.first * tree::kChildren<D>,
+                      end = l == 0 ? lv.n_active : groups.second * tree::kChildren<D>;
+#pragma omp parallel if (end - begin > tree::kParallelMin)
     {
       parallel::CompensatedSum s;
       double count = 0.0;
 #pragma omp for schedule(static) nowait
-      for (tree::Index i = 0; i < lv.n_active; ++i)
+      for (tree::Index i = begin; i < end; ++i)
         if (lv.leaf[i] && t.owns(lv.base + i)) {
           s.add(f(lv.base + i));
           count += 1.0;
