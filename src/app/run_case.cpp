@@ -371,6 +371,14 @@ void run_case(const RunRequest& req) {
     throw io::CaseError(fmt::format("{}: {} capsule(s) on {} MPI ranks: capsules run on one rank until they are "
                                     "distributed (docs/parallel.md); run without mpirun, with OMP_NUM_THREADS for the cores",
                                     req.case_file.string(), c.capsules.size(), comm.size()));
+  // The carried faces survive an adaptation and a restart on one rank only (a distributed
+  // adapt renumbers the cells through the partition, and checkpoints of N ranks do not
+  // gather the faces): such a run would silently leave one rank's numbers.
+  if (comm.size() > 1 && c.fluid.carry_faces && (c.adapt.enabled || req.restart))
+    throw io::CaseError(fmt::format("{}: fluid.carry_faces on {} MPI ranks {}: the carried faces are kept on one rank "
+                                    "only (docs/parallel.md); run it without mpirun, or with --adapt off and no restart",
+                                    req.case_file.string(), comm.size(),
+                                    c.adapt.enabled ? "with adaptation" : "from a checkpoint"));
   bool created = false;
   on_root(comm, [&] { created = prepare_output_dir(out, req.force, req.restart); });
   install_interrupt_handlers();

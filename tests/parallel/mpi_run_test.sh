@@ -6,7 +6,8 @@
 #     the run without mpirun;
 #     the 3D duct (adaptive) on 4 ranks the same;
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
-#  3. a uniform grid too big for this node, and a case with capsules, on 2 ranks are refused:
+#  3. carried faces (fluid.carry_faces) on 2 ranks: uniform as one rank, adaptive refused;
+#     a uniform grid too big for this node, and a case with capsules, on 2 ranks are refused:
 #     exit 2, one capsflow line, no output folder.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
@@ -55,6 +56,21 @@ checkpoint=$(ls "$dir/np2"/checkpoint_000020.h5) || fail "2 ranks wrote no check
   fail "restart on 3 ranks: exit $? $(cat "$dir/err")"
 cmp -s "$dir/serial/cells_final.csv" "$dir/restart/cells_final.csv" || fail "restart on 3 ranks ends elsewhere"
 echo "checkpoint of 2 ranks restarted on 3: same final cells"
+
+# Carried faces (fluid.carry_faces): on 2 ranks a uniform run is one rank's; an adaptive
+# one, whose faces a distributed adapt cannot carry, is refused with exit 2 and one line.
+carry=(run "$cases/cavity_2d.toml" --set time.t_end=0.1 --set fluid.carry_faces=true --set output.vtu=false --quiet)
+"$capsflow" "${carry[@]}" --adapt off --set adapt.max_level=6 --out "$dir/carry1" || fail "carried faces serial exit $?"
+"$mpiexec" -n 2 --oversubscribe "$capsflow" "${carry[@]}" --adapt off --set adapt.max_level=6 --out "$dir/carry2" \
+  2> "$dir/err" || fail "carried faces, uniform, on 2 ranks: exit $? $(cat "$dir/err")"
+diff <(no_wall "$dir/carry1/diagnostics.csv") <(no_wall "$dir/carry2/diagnostics.csv") > /dev/null ||
+  fail "carried faces, uniform, on 2 ranks: diagnostics differ from one rank"
+"$mpiexec" -n 2 --oversubscribe "$capsflow" "${carry[@]}" --out "$dir/carry_adaptive" 2> "$dir/err"
+status=$?
+if [ "$status" -ne 2 ] || [ "$(grep -c '^capsflow:.*carry_faces' "$dir/err")" -ne 1 ] || [ -e "$dir/carry_adaptive" ]; then
+  fail "carried faces, adaptive, on 2 ranks: expected exit 2 and one line; got $status: $(cat "$dir/err")"
+fi
+echo "carried faces: uniform on 2 ranks identical to one rank, adaptive refused: $(grep '^capsflow:' "$dir/err")"
 
 # A uniform grid no node here can hold its share of: refused by every rank alike, one line.
 "$mpiexec" -n 2 --oversubscribe "$capsflow" run "$cases/duct_3d.toml" --adapt off --set adapt.max_level=10 \
