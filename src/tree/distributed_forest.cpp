@@ -150,28 +150,49 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     if (l == 0) break;
     auto& parents = centres[static_cast<std::size_t>(l) - 1];
-    for (const Key k : keys) {
-      const Coords<D> c = morton_decode<D>(k);
-      bool inside = true;
+    auto inside = [&](const Coords<D>& c) {
       for (int d = 0; d < D; ++d)
-        inside = inside && c[d] >= 1 && c[d] + 1 < (static_cast<std::int64_t>(o.roots[d]) << l);
-      if (inside) {  // the parents of the 3^D block: the 2^D cells (c - 1) / 2 .. (c + 1) / 2 at most
-        Coords<D> lo{}, n{};
-        int count = 1;
-        for (int d = 0; d < D; ++d) {
-          lo[d] = (c[d] - 1) / 2;
-          n[d] = (c[d] + 1) / 2 - lo[d] + 1;
-          count *= n[d];
+        if (c[d] < 1 || c[d] + 1 >= (static_cast<std::int64_t>(o.roots[d]) << l)) return false;
+      return true;
+    };
+    // Siblings (consecutive keys with one parent P) share their parents: child b's 3^D block
+    // has the 2^D parents P + o with o_d in {-1, 0} where b's bit d is 0, {0, 1} where it is
+    // 1. A run of siblings away from the sides pushes the union once (at most 3^D keys, not
+    // 2^D per child: the sort below was most of a large plan's time).
+    constexpr int kBlock = ipow(3, D);
+    for (std::size_t i = 0; i < keys.size();) {
+      const Key parent = keys[i] >> D;
+      std::size_t j = i;
+      bool all_inside = true;
+      for (; j < keys.size() && (keys[j] >> D) == parent; ++j) all_inside = all_inside && inside(morton_decode<D>(keys[j]));
+      if (all_inside) {
+        std::array<bool, kBlock> covered{};
+        for (std::size_t r = i; r < j; ++r) {
+          const auto b = static_cast<unsigned>(keys[r] & (Key{kChildren<D>} - 1));
+          for (unsigned corner = 0; corner < kChildren<D>; ++corner) {
+            int index = 0;
+            for (int d = D - 1; d >= 0; --d) {
+              const int offset = static_cast<int>((b >> d) & 1u) - 1 + static_cast<int>((corner >> d) & 1u);  // -1..1
+              index = index * 3 + offset + 1;
+            }
+            covered[static_cast<std::size_t>(index)] = true;
+          }
         }
-        for (int i = 0; i < count; ++i) {
+        const Coords<D> p = morton_decode<D>(parent);
+        for (int index = 0; index < kBlock; ++index) {
+          if (!covered[static_cast<std::size_t>(index)]) continue;
           Coords<D> x{};
-          for (int d = 0, rest = i; d < D; rest /= n[d], ++d) x[d] = lo[d] + rest % n[d];
+          for (int d = 0, rest = index; d < D; ++d, rest /= 3) x[d] = p[d] + rest % 3 - 1;
           parents.push_back(morton_encode<D>(x));
         }
-        continue;
+      } else {
+        for (std::size_t r = i; r < j; ++r) {
+          parents.push_back(parent);
+          for_each_stencil_cell<D>(o, l, morton_decode<D>(keys[r]), 1,
+                                   [&](const CurveCell& x) { parents.push_back(key_of<D>(x, top) >> D); });
+        }
       }
-      parents.push_back(k >> D);
-      for_each_stencil_cell<D>(o, l, c, 1, [&](const CurveCell& x) { parents.push_back(key_of<D>(x, top) >> D); });
+      i = j;
     }
   }
   for (int l = 0; l <= top; ++l) {
