@@ -243,11 +243,11 @@ class Tree {
                         DistributedAdaptation<D>* adaptation = nullptr);
   const Distribution* distribution() const { return dist_; }
   bool distributed() const { return dist_ != nullptr; }
-  bool owns(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] == kOwnedCell; }
+  bool owns(Index c) const { return dist_ == nullptr || roles_[static_cast<std::size_t>(c)] == kOwnedCell; }
   // Whether c holds a real value after an exchange (owned, or a ghost of another rank's
   // cell), not a placeholder: loops whose values are read by owned cells' stencils but not
   // exchanged (the face loops) skip the placeholders.
-  bool holds(Index c) const { return dist_ == nullptr || owned_[static_cast<std::size_t>(c)] != kPlaceholder; }
+  bool holds(Index c) const { return dist_ == nullptr || roles_[static_cast<std::size_t>(c)] != kPlaceholder; }
   // The leaves this rank computes and reduces over: every leaf on one rank.
   std::span<const Index> owned_leaves() const { return dist_ ? std::span<const Index>(owned_leaves_) : leaves_; }
   // The sibling groups [first, second) of level l >= 1 that hold every cell this rank owns
@@ -423,7 +423,7 @@ class Tree {
   int leaf_sync_restrict_from_ = 0, leaf_sync_exchange_from_ = 0;
   const Distribution* dist_ = nullptr;
   DistributedAdaptation<D>* dist_adapt_ = nullptr;
-  std::vector<std::uint8_t> owned_;  // per cell, distributed only: its CellRole
+  std::vector<std::uint8_t> roles_;  // per cell, distributed only: its CellRole
   std::vector<Index> owned_leaves_;
   std::vector<std::pair<Index, Index>> owned_groups_;  // per level, distributed only
   // Per level, distributed only: the halo groups (all, and those of Level::halo_read) whose

@@ -400,7 +400,7 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
   global_depth_ = depth_;
   dist_ = nullptr;
   dist_adapt_ = nullptr;
-  owned_.clear();
+  roles_.clear();
   owned_leaves_.clear();
   num_cells_ = cells;
   collect_leaves();
@@ -416,7 +416,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
   dist_adapt_ = adaptation;
   if (d == nullptr) {
     dist_ = nullptr;
-    owned_.clear();
+    roles_.clear();
     owned_leaves_.clear();
     owned_groups_.clear();
     global_depth_ = depth_;
@@ -425,7 +425,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
   if (roles.size() != static_cast<std::size_t>(num_cells_))
     throw std::invalid_argument("Tree::set_distribution: the roles need one entry per cell");
   dist_ = d;
-  owned_ = std::move(roles);
+  roles_ = std::move(roles);
   owned_leaves_.clear();
   for (const Index c : leaves_)
     if (owns(c)) owned_leaves_.push_back(c);
