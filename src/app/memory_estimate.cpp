@@ -129,7 +129,8 @@ void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, c
   const MemoryEstimate e = estimate_memory(c);
   // What the run may use in all, from each node's memory over its share of the ranks (and
   // each process's address-space limit over its 1/N): the tightest rank decides for all.
-  const double ranks = comm.size(), node_share = comm.ranks_on_this_node() / ranks;
+  const int on_node = comm.ranks_on_this_node();  // collective: once
+  const double ranks = comm.size(), node_share = on_node / ranks;
   const double inf = std::numeric_limits<double>::infinity();
   const auto node_available = available_memory();
   const double available =
@@ -138,7 +139,7 @@ void check_memory(const io::CaseConfig& c, std::optional<std::uint64_t> limit, c
   const double left = parallel::global_min(comm, left_here ? *left_here * ranks : inf);
   const auto all_ranks = [&](double bytes) {
     return ranks > 1 ? fmt::format("{} in all ({} on a node holding {} of the {} ranks)", human(bytes),
-                                   human(bytes * node_share), comm.ranks_on_this_node(), comm.size())
+                                   human(bytes * node_share), on_node, comm.size())
                      : human(bytes);
   };
   std::string over;

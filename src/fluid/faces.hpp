@@ -119,12 +119,11 @@ void for_each_leaf_level(const tree::Tree<D>& t, F&& f) {
 // exchanged before anything reads them.
 template <int D, class F>
 void for_each_owned_leaf_level(const tree::Tree<D>& t, F&& f) {
-  constexpr Index C = tree::kChildren<D>;
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double h = t.cell_size(l);
-    const auto groups = t.owned_groups(l);
-    const Index begin = l == 0 ? 0 : groups.first * C, end = l == 0 ? lv.n_active : groups.second * C, base = lv.base;
+    const auto [begin, end] = t.owned_range(l);
+    const Index base = lv.base;
 #pragma omp parallel for schedule(static) if (end - begin > tree::kParallelMin)
     for (Index i = begin; i < end; ++i)
       if (lv.leaf[i]) f(base + i, l, h);

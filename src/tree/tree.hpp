@@ -260,6 +260,13 @@ class Tree {
       return {0, levels_[l].n_active / kChildren<D>};
     return owned_groups_[static_cast<std::size_t>(l)];
   }
+  // The level-local indices [begin, end) of the cells of owned_groups(l) (level 0, roots
+  // and not sibling groups: the whole level).
+  std::pair<Index, Index> owned_range(int l) const {
+    if (l == 0) return {0, levels_[0].n_active};
+    const auto [first, last] = owned_groups(l);
+    return {first * kChildren<D>, last * kChildren<D>};
+  }
   // The deepest level on any rank: the range of every loop that exchanges.
   int global_depth() const { return global_depth_; }
   bool replicated_level(int l) const { return dist_ != nullptr && dist_->replicated(l); }

@@ -63,9 +63,8 @@ void Tree<D>::restrict_level(int l, std::span<double> v) const {
   constexpr int C = kChildren<D>;
   const Level<D>& lv = levels_[l];
   // Distributed: the parents this rank owns (restrict_and_exchange brings the ghosts').
-  const auto groups = owned_groups(l);
-  const Index b = lv.active_begin(), from = l == 0 ? b : b + groups.first * C,
-              to = l == 0 ? lv.active_end() : b + groups.second * C;
+  const auto [first, last] = owned_range(l);
+  const Index b = lv.active_begin(), from = b + first, to = b + last;
 #pragma omp parallel for schedule(static) if (to - from > kParallelMin)
   for (Index c = from; c < to; ++c) {
     if (lv.leaf[c - b]) continue;

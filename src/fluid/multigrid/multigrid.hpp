@@ -54,10 +54,7 @@ std::pair<double, double> leaf_integral(const tree::Tree<D>& t, F&& f) {
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double vol = std::pow(t.cell_size(l), D);
-    // The sibling groups holding the owned cells (the whole level on one rank).
-    const auto groups = t.owned_groups(l);
-    const tree::Index begin = l == 0 ? 0 : groups.first * tree::kChildren<D>,
-                      end = l == 0 ? lv.n_active : groups.second * tree::kChildren<D>;
+    const auto [begin, end] = t.owned_range(l);  // the whole level on one rank
 #pragma omp parallel if (end - begin > tree::kParallelMin)
     {
       parallel::CompensatedSum s;
