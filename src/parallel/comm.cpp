@@ -41,8 +41,25 @@ int Comm::ranks_on_this_node() const {
   return n;
 }
 
+namespace {
+
+// Open MPI's shared-memory transport (vader) sends a message above 4 KB by rendezvous: the
+// sender announces it, waits for the receiver to answer, then a system call (CMA) copies it.
+// A flow step's exchanges are mostly 1-30 KB (one level's ghosts, or one colour of them);
+// each cost 10-34 us that way against 2-8 us sent eagerly (copied through the shared
+// segment, no handshake: a sender that arrives first does not wait for its receiver).
+// Measured on the seed shell, 2 ranks: bench/parallel/mpi_scaling.sh, docs/parallel.md.
+// Set before MPI_Init, and only where the user has not (mpirun --mca or the environment
+// win); other MPI libraries ignore the variable.
+void prefer_eager_shared_memory_messages() {
+  setenv("OMPI_MCA_btl_vader_eager_limit", "32768", /*overwrite=*/0);
+}
+
+}  // namespace
+
 MpiSession::MpiSession(int& argc, char**& argv) {
   if (!launched_by_mpi()) return;
+  prefer_eager_shared_memory_messages();
   int provided = 0;
   if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS)
     throw std::runtime_error("MPI_Init_thread failed");
