@@ -40,6 +40,14 @@ void resize(FaceField<D>& f, const tree::Tree<D>& t) {
   for (auto& v : f) v.assign(t.num_cells(), 0.0);
 }
 
+// The D components as spans, to exchange them together (Tree::exchange_all).
+template <int D>
+std::array<std::span<double>, D> components(FaceField<D>& f) {
+  std::array<std::span<double>, D> out;
+  for (int d = 0; d < D; ++d) out[d] = f[d];
+  return out;
+}
+
 // Calls f(d, lower, upper, h, level) for every fine face: lower and upper are the
 // same-level cells on either side along d, h their size; the face's slot is `upper`.
 // Parallel over leaves. On N ranks, the faces of owned and ghost leaves: an owned leaf reads

@@ -128,7 +128,7 @@ void NavierStokes<D>::with_inverse_density(Body&& body) const {
 
 template <int D>
 void NavierStokes<D>::sync_velocity() {
-  for (int d = 0; d < D; ++d) tree_.sync(u_[d]);
+  tree_.sync(u_);  // the D components together (one message per level and neighbour rank)
 }
 
 template <int D>
@@ -315,7 +315,7 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
   restrict_faces<D>(tree_, uf);
   // Distributed: a ghost's coarse face is the mean of fine faces this rank may not have;
   // the owners' projected faces instead (the advection reads the ghosts' faces).
-  for (int d = 0; d < D; ++d) tree_.exchange_all(uf[d]);
+  tree_.exchange_all(components<D>(uf));
   return s.cycles;
 }
 
@@ -347,11 +347,14 @@ void NavierStokes<D>::centred_gradient(double dt, bool only_g) {
       if (!only_g) tree_.values(u_[d])[c] += dt * g;
     }
   });
-  // Distributed: a ghost's faces may lie past the ghost layer; its owner's values instead.
+  // Distributed: a ghost's faces may lie past the ghost layer; its owner's values instead
+  // (g and u in one message per neighbour rank).
+  std::array<std::span<double>, 2 * D> gu;
   for (int d = 0; d < D; ++d) {
-    tree_.exchange_all(tree_.values(g_[d]));
-    tree_.exchange_all(tree_.values(u_[d]));
+    gu[d] = tree_.values(g_[d]);
+    gu[D + d] = tree_.values(u_[d]);
   }
+  tree_.exchange_all(gu);
 }
 
 template <int D>

@@ -42,10 +42,8 @@ void slopes(const tree::Tree<D>& t, std::span<const double> f, bool limited,
   });
   // Distributed: a ghost's slope from its owner (its own stencil may reach past the ghost
   // layer), before the halos copy it.
-  for (int d = 0; d < D; ++d) {
-    t.exchange_all(out[d]);
-    inject_halo<D>(t, out[d]);
-  }
+  t.exchange_all(components<D>(out));
+  for (int d = 0; d < D; ++d) inject_halo<D>(t, out[d]);
 }
 
 // The BCG face value of f (see above); `vt(e, i)` is the transverse velocity of cell i.
@@ -72,13 +70,15 @@ double bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, d
 
 template <int D>
 void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
-  for (int d = 0; d < D; ++d) tree_.sync(g_[d]);
+  tree_.sync(g_);
   std::array<std::span<const double>, D> u, g;
-  for (int d = 0; d < D; ++d) u[d] = tree_.values(u_[d]);
-  // Sources: g + (mu/rho) lap u per component, valid on leaves and (injected) halos.
+  std::array<std::span<double>, D> velocity;
+  for (int d = 0; d < D; ++d) u[d] = velocity[d] = tree_.values(u_[d]);
+  // Sources: g + (mu/rho) lap u per component, valid on leaves and (injected) halos; the
+  // Laplacian reads quadratic halos.
+  tree_.sync(velocity, conditions_.velocity, tree::Prolongation::quadratic);
   for (int d = 0; d < D; ++d) {
     std::vector<double>& src = source_[d];
-    tree_.sync(tree_.values(u_[d]), conditions_.velocity[d], tree::Prolongation::quadratic);
     const std::span<const double> gd = tree_.values(g_[d]);
     if (properties_) {
       const EllipticOperator<D, FaceArray<D>> viscous(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]);
@@ -91,10 +91,10 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       laplacian.apply_leaves(u[d], src);
       tree_.for_each_leaf([&](Index c) { src[c] += gd[c]; });
     }
-    tree_.exchange_all(src);  // distributed: as the slopes
-    inject_halo<D>(tree_, src);
     g[d] = src;
   }
+  tree_.exchange_all(components<D>(source_));  // distributed: as the slopes
+  for (int d = 0; d < D; ++d) inject_halo<D>(tree_, source_[d]);
   sync_velocity();  // back to the linear halos the slopes and faces use
   // 1. Prediction of the normal velocity on every face, then its approximate projection.
   std::array<std::vector<double>, D>& sl = slope_;
@@ -111,7 +111,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   }
   // Distributed: the ghosts' lower faces from their owners; the advection's transverse
   // velocities read the faces of the cells next to the owned ones.
-  for (int d = 0; d < D; ++d) tree_.exchange_all(uf_[d]);
+  tree_.exchange_all(components<D>(uf_));
   restrict_faces<D>(tree_, uf_);
   stats.prediction_cycles += project(uf_, pf_, 0.5 * dt, options_.projection, stats);
 
@@ -134,8 +134,12 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       for (int d = 0; d < D; ++d) div += flux[d][row[2 * d + 1]] - flux[d][cell];
       uc[cell] -= dt * div / h;
     });
-    tree_.exchange_all(uc);  // distributed: the ghosts' new values from their owners
   }
+  // Distributed: the ghosts' new values from their owners (a component's flux reads no
+  // other component's cells, so all D go together after the last).
+  std::array<std::span<double>, D> advected;
+  for (int c = 0; c < D; ++c) advected[c] = tree_.values(u_[c]);
+  tree_.exchange_all(advected);
 }
 
 template void NavierStokes<2>::prediction_and_advection(double, StepStats&);

@@ -356,6 +356,34 @@ void DistributedForest<D>::attach(Tree<D>& t) {
         if (p.rank == q) g.receive.insert(g.receive.end(), p.receive.begin(), p.receive.end());
     }
   }
+  // exchange_all(): the replicated levels' gathers as one (each rank's block: its cells of
+  // every replicated level, coarse to fine), the distributed levels' lists per peer one
+  // after the other (both sides concatenate in the same level order).
+  whole_gather_ = {};
+  whole_gather_.counts.assign(static_cast<std::size_t>(comm_.size()), 0);
+  for (const Gather& g : gathers_) {
+    whole_gather_.send.insert(whole_gather_.send.end(), g.send.begin(), g.send.end());
+    for (std::size_t q = 0; q < g.counts.size(); ++q) whole_gather_.counts[q] += g.counts[q];
+  }
+  for (std::size_t q = 0; q < whole_gather_.counts.size(); ++q) {
+    whole_gather_.offsets.push_back(static_cast<int>(whole_gather_.receive.size()));
+    for (const Gather& g : gathers_) {
+      const auto block = g.receive.begin() + g.offsets[q];
+      whole_gather_.receive.insert(whole_gather_.receive.end(), block, block + g.counts[q]);
+    }
+  }
+  whole_peers_.clear();
+  for (const PeerCells& pc : peer_cells_) {
+    Peer whole;
+    whole.rank = pc.rank;
+    for (int l = replicated_levels_; l <= top; ++l)
+      for (const Peer& p : level_peers_[static_cast<std::size_t>(l)])
+        if (p.rank == pc.rank) {
+          whole.send.insert(whole.send.end(), p.send.begin(), p.send.end());
+          whole.receive.insert(whole.receive.end(), p.receive.begin(), p.receive.end());
+        }
+    if (!whole.send.empty() || !whole.receive.empty()) whole_peers_.push_back(std::move(whole));
+  }
   std::vector<std::uint8_t> roles(static_cast<std::size_t>(t.num_cells()), Tree<D>::kPlaceholder);
   for (const auto& peers : level_peers_)
     for (const Peer& p : peers)
@@ -371,59 +399,92 @@ void DistributedForest<D>::attach(Tree<D>& t) {
 }
 
 template <int D>
-void DistributedForest<D>::exchange(int level, std::span<double> v) const {
+void DistributedForest<D>::gather(const Gather& g, Fields fields) const {
+  const std::size_t nf = fields.size(), n = g.send.size();
+  gather_send_.resize(n * nf);
+  gather_receive_.resize(g.receive.size() * nf);
+  for (std::size_t f = 0; f < nf; ++f)
+    for (std::size_t i = 0; i < n; ++i) gather_send_[f * n + i] = fields[f][static_cast<std::size_t>(g.send[i])];
+  // Each rank's block holds its fields one after the other.
+  gather_counts_.resize(g.counts.size());
+  gather_offsets_.resize(g.offsets.size());
+  for (std::size_t q = 0; q < g.counts.size(); ++q) {
+    gather_counts_[q] = g.counts[q] * static_cast<int>(nf);
+    gather_offsets_[q] = g.offsets[q] * static_cast<int>(nf);
+  }
+  values_sent_ += static_cast<std::int64_t>(n * nf);
+  const auto start = std::chrono::steady_clock::now();
+  check(MPI_Allgatherv(gather_send_.data(), static_cast<int>(gather_send_.size()), MPI_DOUBLE, gather_receive_.data(),
+                       gather_counts_.data(), gather_offsets_.data(), MPI_DOUBLE, comm_.handle()),
+        "MPI_Allgatherv");
+  waiting_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (std::size_t q = 0; q < g.counts.size(); ++q) {
+    const auto count = static_cast<std::size_t>(g.counts[q]), offset = static_cast<std::size_t>(g.offsets[q]);
+    for (std::size_t f = 0; f < nf; ++f) {
+      const double* block = gather_receive_.data() + nf * offset + f * count;
+      for (std::size_t i = 0; i < count; ++i) {
+        const Index c = g.receive[offset + i];
+        if (c != kNone) fields[f][static_cast<std::size_t>(c)] = block[i];
+      }
+    }
+  }
+}
+
+template <int D>
+void DistributedForest<D>::exchange(int level, Fields fields) const {
   if (level < 0 || level >= static_cast<int>(level_peers_.size())) return;
+  if (exchanges_.size() < level_peers_.size()) exchanges_.resize(level_peers_.size(), 0);
   if (level < replicated_levels_) {  // every rank calls it: every rank holds these levels
-    const Gather& g = gathers_[static_cast<std::size_t>(level)];
-    gather_send_.resize(g.send.size());
-    gather_receive_.resize(g.receive.size());
-    for (std::size_t i = 0; i < g.send.size(); ++i) gather_send_[i] = v[static_cast<std::size_t>(g.send[i])];
-    if (exchanges_.size() < level_peers_.size()) exchanges_.resize(level_peers_.size(), 0);
     ++exchanges_[static_cast<std::size_t>(level)];
-    values_sent_ += static_cast<std::int64_t>(g.send.size());
-    const auto start = std::chrono::steady_clock::now();
-    check(MPI_Allgatherv(gather_send_.data(), static_cast<int>(gather_send_.size()), MPI_DOUBLE, gather_receive_.data(),
-                         g.counts.data(), g.offsets.data(), MPI_DOUBLE, comm_.handle()),
-          "MPI_Allgatherv");
-    waiting_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    for (std::size_t i = 0; i < g.receive.size(); ++i)
-      if (g.receive[i] != kNone) v[static_cast<std::size_t>(g.receive[i])] = gather_receive_[i];
+    gather(gathers_[static_cast<std::size_t>(level)], fields);
     return;
   }
-  exchange_lists(level, v, exchanges_, [](const Peer& p) { return std::pair{&p.send, &p.receive}; });
+  const auto& peers = level_peers_[static_cast<std::size_t>(level)];
+  if (peers.empty()) return;
+  ++exchanges_[static_cast<std::size_t>(level)];
+  exchange_lists(peers, kTagBase + level, fields, [](const Peer& p) { return std::pair{&p.send, &p.receive}; });
 }
 
 template <int D>
 void DistributedForest<D>::exchange_colour(int level, std::span<double> v, int colour) const {
   if (level < replicated_levels_) {  // no lists by colour there: the whole level
-    exchange(level, v);
+    exchange(level, {&v, 1});
     return;
   }
+  if (level >= static_cast<int>(level_peers_.size())) return;
+  const auto& peers = level_peers_[static_cast<std::size_t>(level)];
+  if (peers.empty()) return;
+  if (colour_exchanges_.size() < level_peers_.size()) colour_exchanges_.resize(level_peers_.size(), 0);
+  ++colour_exchanges_[static_cast<std::size_t>(level)];
   const auto k = static_cast<std::size_t>(colour & 1);
-  exchange_lists(level, v, colour_exchanges_, [k](const Peer& p) { return std::pair{&p.send_colour[k], &p.receive_colour[k]}; });
+  exchange_lists(peers, kTagBase + level, {&v, 1},
+                 [k](const Peer& p) { return std::pair{&p.send_colour[k], &p.receive_colour[k]}; });
+}
+
+template <int D>
+void DistributedForest<D>::exchange_all(Fields fields) const {
+  ++whole_exchanges_;
+  whole_exchange_fields_ += static_cast<std::int64_t>(fields.size());
+  if (replicated_levels_ > 0) gather(whole_gather_, fields);
+  exchange_lists(whole_peers_, kTagBase - 1, fields, [](const Peer& p) { return std::pair{&p.send, &p.receive}; });
 }
 
 template <int D>
 template <class Pick>
-void DistributedForest<D>::exchange_lists(int level, std::span<double> v, std::vector<std::int64_t>& counts,
-                                          Pick pick) const {
-  if (level < 0 || level >= static_cast<int>(level_peers_.size())) return;
-  const auto& peers = level_peers_[static_cast<std::size_t>(level)];
+void DistributedForest<D>::exchange_lists(std::span<const Peer> peers, int tag, Fields fields, Pick pick) const {
   if (peers.empty()) return;
-  if (counts.size() < level_peers_.size()) counts.resize(level_peers_.size(), 0);
-  ++counts[static_cast<std::size_t>(level)];
-  send_buffers_.resize(peers.size());
-  receive_buffers_.resize(peers.size());
+  const std::size_t nf = fields.size();
+  send_buffers_.resize(std::max(send_buffers_.size(), peers.size()));
+  receive_buffers_.resize(std::max(receive_buffers_.size(), peers.size()));
   std::vector<MPI_Request>& requests = requests_;  // kept: this runs ~1000 times a step
   requests.clear();
-  const int tag = kTagBase + level;
   for (std::size_t k = 0; k < peers.size(); ++k) {
     const std::vector<Index>& receive = *pick(peers[k]).second;
     if (receive.empty()) continue;
     // Buffers only grow: the levels take turns with them, and resizing up and down
     // zero-filled them each time (a tenth of the exchange's cost on 128^3).
     auto& b = receive_buffers_[k];
-    const std::size_t n = receive.size();
+    const std::size_t n = receive.size() * nf;
     if (b.size() < n) b.resize(n);
     requests.emplace_back();
     check(MPI_Irecv(b.data(), static_cast<int>(n), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
@@ -435,11 +496,15 @@ void DistributedForest<D>::exchange_lists(int level, std::span<double> v, std::v
     if (send.empty()) continue;
     auto& b = send_buffers_[k];
     const std::size_t n = send.size();
-    if (b.size() < n) b.resize(n);
-    for (std::size_t i = 0; i < n; ++i) b[i] = v[static_cast<std::size_t>(send[i])];
-    values_sent_ += static_cast<std::int64_t>(n);
+    if (b.size() < n * nf) b.resize(n * nf);
+    for (std::size_t f = 0; f < nf; ++f) {
+      const std::span<double> v = fields[f];
+      double* out = b.data() + f * n;
+      for (std::size_t i = 0; i < n; ++i) out[i] = v[static_cast<std::size_t>(send[i])];
+    }
+    values_sent_ += static_cast<std::int64_t>(n * nf);
     requests.emplace_back();
-    check(MPI_Isend(b.data(), static_cast<int>(n), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
+    check(MPI_Isend(b.data(), static_cast<int>(n * nf), MPI_DOUBLE, peers[k].rank, tag, comm_.handle(),
                     &requests.back()),
           "MPI_Isend");
   }
@@ -447,9 +512,13 @@ void DistributedForest<D>::exchange_lists(int level, std::span<double> v, std::v
   check(MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
   waiting_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    const auto& b = receive_buffers_[k];
     const std::vector<Index>& receive = *pick(peers[k]).second;
-    for (std::size_t i = 0; i < receive.size(); ++i) v[static_cast<std::size_t>(receive[i])] = b[i];
+    const std::size_t n = receive.size();
+    for (std::size_t f = 0; f < nf; ++f) {
+      const std::span<double> v = fields[f];
+      const double* in = receive_buffers_[k].data() + f * n;
+      for (std::size_t i = 0; i < n; ++i) v[static_cast<std::size_t>(receive[i])] = in[i];
+    }
   }
 }
 
@@ -640,6 +709,8 @@ typename DistributedForest<D>::Traffic DistributedForest<D>::traffic() const {
     out.exchanges_per_level.push_back(l < exchanges_.size() ? exchanges_[l] : 0);
     out.colour_exchanges_per_level.push_back(l < colour_exchanges_.size() ? colour_exchanges_[l] : 0);
   }
+  out.whole_exchanges = whole_exchanges_;
+  out.whole_exchange_fields = whole_exchange_fields_;
   return out;
 }
 

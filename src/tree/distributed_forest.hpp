@@ -68,8 +68,9 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   void attach(Tree<D>& t);
 
   // Distribution
-  void exchange(int level, std::span<double> v) const override;
+  void exchange(int level, Fields fields) const override;
   void exchange_colour(int level, std::span<double> v, int colour) const override;
+  void exchange_all(Fields fields) const override;
   double sum(const parallel::ExactSum& local) const override;
   double max(double local) const override;
   std::int64_t sum(std::int64_t local) const override;
@@ -111,6 +112,8 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
     std::vector<std::int64_t> ghosts_per_level, messages_per_level;
     std::vector<std::int64_t> exchanges_per_level;  // exchange() calls so far (with peers)
     std::vector<std::int64_t> colour_exchanges_per_level;  // exchange_colour() calls (one colour)
+    std::int64_t whole_exchanges = 0;  // exchange_all() calls, each one message per peer
+    std::int64_t whole_exchange_fields = 0;  // the fields they carried, summed
   };
   [[nodiscard]] Traffic traffic() const;
   // Seconds spent in MPI_Waitall and values sent, since construction.
@@ -129,10 +132,10 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
     // lists by the same rule, so they stay matched).
     std::array<std::vector<Index>, 2> send_colour, receive_colour;
   };
-  // exchange() and exchange_colour(): one message per peer with the lists `pick` gives,
-  // counted in counts[level].
+  // One message per peer of `peers` with the lists `pick` gives, every field's values one
+  // field after the other.
   template <class Pick>
-  void exchange_lists(int level, std::span<double> v, std::vector<std::int64_t>& counts, Pick pick) const;
+  void exchange_lists(std::span<const Peer> peers, int tag, Fields fields, Pick pick) const;
   // Builds the plan for these owned leaves (the constructor's work, again after an adapt).
   void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
   // The weight of each of these leaves.
@@ -152,8 +155,15 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
     std::vector<Index> receive;       // all ranks' cells, rank order (own block: kNone)
     std::vector<int> counts, offsets;  // per rank
   };
+  // Every rank's block, every field's values one field after the other.
+  void gather(const Gather& g, Fields fields) const;
   std::vector<Gather> gathers_;  // per replicated level
   mutable std::vector<double> gather_send_, gather_receive_;
+  mutable std::vector<int> gather_counts_, gather_offsets_;
+  // exchange_all(): every replicated level in one gather, and per peer the lists of every
+  // distributed level one after the other (ranks ascending).
+  Gather whole_gather_;
+  std::vector<Peer> whole_peers_;
   parallel::Comm comm_;
   Partition partition_;
   TreeOptions<D> options_;
@@ -165,6 +175,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   mutable std::vector<MPI_Request> requests_;
   mutable double waiting_ = 0.0;
   mutable std::vector<std::int64_t> exchanges_, colour_exchanges_;  // per level
+  mutable std::int64_t whole_exchanges_ = 0, whole_exchange_fields_ = 0;
   mutable std::int64_t values_sent_ = 0;
 };
 

@@ -185,9 +185,13 @@ struct AdaptOptions {
 class Distribution {
  public:
   virtual ~Distribution() = default;
+  using Fields = std::span<const std::span<double>>;
   // Every ghost cell of level l (a cell of another rank that a stencil of this rank reads)
-  // gets its owner's value of v.
-  virtual void exchange(int level, std::span<double> v) const = 0;
+  // gets its owner's value of each field (one message per neighbour rank for all of them).
+  virtual void exchange(int level, Fields fields) const = 0;
+  // The same for every level at once: one message per neighbour rank (and one gather of the
+  // replicated levels) for all levels and fields, where exchange() sends one per level.
+  virtual void exchange_all(Fields fields) const = 0;
   // The same for the ghosts of one red-black colour only (the parity of the cell's
   // coordinate sum, Level::keys: popcount(key & (2^D - 1)) & 1): after a half-sweep that
   // changed that colour alone, half the values.
@@ -271,15 +275,21 @@ class Tree {
   int global_depth() const { return global_depth_; }
   bool replicated_level(int l) const { return dist_ != nullptr && dist_->replicated(l); }
   void exchange_level(int l, std::span<double> v) const {
-    if (dist_) dist_->exchange(l, v);
+    if (dist_) dist_->exchange(l, {&v, 1});
+  }
+  void exchange_level(int l, Distribution::Fields fields) const {
+    if (dist_) dist_->exchange(l, fields);
   }
   void exchange_level_colour(int l, std::span<double> v, int colour) const {
     if (dist_) dist_->exchange_colour(l, v, colour);
   }
-  // Ghosts of every level, coarse to fine.
+  // Ghosts of every level, of one field or of several at once (one message per neighbour
+  // rank for all: the flow step exchanges its D velocity components together).
   void exchange_all(std::span<double> v) const {
-    if (dist_)
-      for (int l = 0; l <= global_depth_; ++l) dist_->exchange(l, v);
+    if (dist_) dist_->exchange_all({&v, 1});
+  }
+  void exchange_all(Distribution::Fields fields) const {
+    if (dist_) dist_->exchange_all(fields);
   }
   double global_sum(const parallel::ExactSum& local) const { return dist_ ? dist_->sum(local) : local.value(); }
   double global_max(double local) const { return dist_ ? dist_->max(local) : local; }
@@ -360,10 +370,16 @@ class Tree {
   void sync(std::span<double> v, const BoundaryConditions<D>& bc,
             Prolongation p = Prolongation::linear) const;
   void sync(FieldId f);
+  // The same for several fields at once (distributed: one message per level and neighbour
+  // rank for all of them): with one boundary condition per field, or the registered ones.
+  void sync(Distribution::Fields fields, std::span<const BoundaryConditions<D>> bcs,
+            Prolongation p = Prolongation::linear) const;
+  void sync(std::span<const FieldId> fields);
   // Parents of levels [coarsest, depth) restricted bottom-up; distributed, the ghosts of
   // the leaves are first brought from their owners and each level's after its restriction,
   // so every cell a stencil of this rank reads holds the owner's value.
   void restrict_and_exchange(std::span<double> v, int coarsest = 0) const;
+  void restrict_and_exchange(Distribution::Fields fields, int coarsest = 0) const;
   // v restricted on every group of owned_groups() (as the multigrid residual leaves it):
   // level by level from the deepest, the parents whose children straddle the end of this
   // rank's range are restricted again from their owners' values, then the level is

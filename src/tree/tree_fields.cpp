@@ -169,16 +169,23 @@ void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D
 
 template <int D>
 void Tree<D>::restrict_and_exchange(std::span<double> v, int coarsest) const {
+  restrict_and_exchange(Distribution::Fields{&v, 1}, coarsest);
+}
+
+template <int D>
+void Tree<D>::restrict_and_exchange(Distribution::Fields fields, int coarsest) const {
   if (!dist_) {
-    for (int l = depth_ - 1; l >= coarsest; --l) restrict_level(l, v);
+    for (const std::span<double> v : fields)
+      for (int l = depth_ - 1; l >= coarsest; --l) restrict_level(l, v);
     return;
   }
   // From the deepest level up: a level's parents are restricted (their children, owned or
   // ghosts, were exchanged one level below), then the level is exchanged once, its leaves
-  // (the caller's values) and its parents together.
+  // (the caller's values) and its parents together, every field in the same message.
   for (int l = global_depth_; l >= coarsest; --l) {
-    if (l < depth_) restrict_level(l, v);
-    exchange_level(l, v);
+    if (l < depth_)
+      for (const std::span<double> v : fields) restrict_level(l, v);
+    exchange_level(l, fields);
   }
 }
 
@@ -208,13 +215,21 @@ void Tree<D>::exchange_restricted(std::span<double> v) const {
 
 template <int D>
 void Tree<D>::sync(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
-  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync: the field does not have num_cells entries");
+  sync(Distribution::Fields{&v, 1}, std::span<const BoundaryConditions<D>>{&bc, 1}, p);
+}
+
+template <int D>
+void Tree<D>::sync(Distribution::Fields fields, std::span<const BoundaryConditions<D>> bcs, Prolongation p) const {
+  CAPSFLOW_ASSERT(fields.size() == bcs.size(), "Tree::sync: one boundary condition per field");
+  for (const std::span<double> v : fields)
+    CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync: a field does not have num_cells entries");
   if (p == Prolongation::none) p = Prolongation::linear;
-  restrict_and_exchange(v, 0);
-  for (int l = 0; l <= depth_; ++l) {
-    fill_halo(l, v, p);
-    fill_ghosts(l, v, bc);
-  }
+  restrict_and_exchange(fields, 0);
+  for (std::size_t f = 0; f < fields.size(); ++f)
+    for (int l = 0; l <= depth_; ++l) {
+      fill_halo(l, fields[f], p);
+      fill_ghosts(l, fields[f], bcs[f]);
+    }
 }
 
 template <int D>
@@ -246,8 +261,22 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
 
 template <int D>
 void Tree<D>::sync(FieldId f) {
-  const FieldSpec<D>& spec = fields_.at(f);
-  sync(data_[f], spec.bc, spec.prolongation);
+  sync(std::span<const FieldId>{&f, 1});
+}
+
+template <int D>
+void Tree<D>::sync(std::span<const FieldId> ids) {
+  std::vector<std::span<double>> fields;
+  for (const FieldId f : ids) fields.emplace_back(data_.at(f));
+  restrict_and_exchange(fields, 0);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const FieldSpec<D>& spec = fields_.at(ids[k]);
+    const Prolongation p = spec.prolongation == Prolongation::none ? Prolongation::linear : spec.prolongation;
+    for (int l = 0; l <= depth_; ++l) {
+      fill_halo(l, fields[k], p);
+      fill_ghosts(l, fields[k], spec.bc);
+    }
+  }
 }
 
 template <int D>
@@ -309,6 +338,9 @@ template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
+template void Tree<2>::sync(std::span<const FieldId>);
+template void Tree<2>::sync(Distribution::Fields, std::span<const BoundaryConditions<2>>, Prolongation) const;
+template void Tree<2>::restrict_and_exchange(Distribution::Fields, int) const;
 template void Tree<2>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<2>::exchange_restricted(std::span<double>) const;
 template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
@@ -321,6 +353,9 @@ template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);
+template void Tree<3>::sync(std::span<const FieldId>);
+template void Tree<3>::sync(Distribution::Fields, std::span<const BoundaryConditions<3>>, Prolongation) const;
+template void Tree<3>::restrict_and_exchange(Distribution::Fields, int) const;
 template void Tree<3>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<3>::exchange_restricted(std::span<double>) const;
 template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;

@@ -118,6 +118,30 @@ void check_ghosts(const TreeOptions<D>& o) {
       EXPECT_GT(touched, 0);
     }
   }
+  // Several fields at once, every level in one message (exchange_all) or level by level
+  // (exchange_level): each field's ghosts get that field's owner values, exactly as the
+  // one-field exchange above gave them, and no field's values land in another's.
+  constexpr int kFields = 3;
+  for (const bool by_level : {false, true}) {
+    std::vector<std::vector<double>> w(kFields, std::vector<double>(v.size(), std::numeric_limits<double>::quiet_NaN()));
+    for (int k = 0; k < kFields; ++k)
+      for (int l = 0; l <= t.depth(); ++l)
+        for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c)
+          if (t.owns(c)) w[k][static_cast<std::size_t>(c)] = (k + 1) * value(c) + k;
+    std::vector<std::span<double>> fields(w.begin(), w.end());
+    if (by_level) {
+      for (int l = 0; l <= t.global_depth(); ++l) t.exchange_level(l, fields);
+    } else {
+      t.exchange_all(fields);
+    }
+    std::int64_t mismatched = 0;
+    for (int k = 0; k < kFields; ++k)
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const double expected = std::isnan(v[i]) ? v[i] : (k + 1) * v[i] + k;
+        if (std::isnan(expected) != std::isnan(w[k][i]) || (!std::isnan(expected) && w[k][i] != expected)) ++mismatched;
+      }
+    EXPECT_EQ(mismatched, 0) << (by_level ? "level by level" : "all levels") << ", rank " << comm.rank();
+  }
   // Gathered on rank 0, the owned values are the serial forest's leaves again.
   const FieldId f = t.add_field({.name = "v"});
   for (const Index c : t.owned_leaves()) t.values(f)[static_cast<std::size_t>(c)] = value(c);
