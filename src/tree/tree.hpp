@@ -252,6 +252,14 @@ class Tree {
   // cell), not a placeholder: loops whose values are read by owned cells' stencils but not
   // exchanged (the face loops) skip the placeholders.
   bool holds(Index c) const { return dist_ == nullptr || roles_[static_cast<std::size_t>(c)] != kPlaceholder; }
+  // Distributed: the ghost leaves of level l outside owned_range(l) whose faces an owned
+  // cell's stencil reads: the face neighbours of owned cells (an owned leaf reads its upper
+  // neighbour's lower face, the advection the upwind neighbour's boundary and halo faces,
+  // and an owned parent's face is restricted from its lower neighbour leaf), the children of
+  // owned parents and of parents next to an owned leaf (the fine faces a coarse face is the
+  // mean of). The face loops visit the owned groups and these only: the other ghosts' faces
+  // are read by other ghosts only, whose values come from their owners.
+  std::span<const Index> face_ghosts(int l) const { return face_ghosts_[static_cast<std::size_t>(l)]; }
   // The leaves this rank computes and reduces over: every leaf on one rank.
   std::span<const Index> owned_leaves() const { return dist_ ? std::span<const Index>(owned_leaves_) : leaves_; }
   // The sibling groups [first, second) of level l >= 1 that hold every cell this rank owns
@@ -420,6 +428,7 @@ class Tree {
   void finish_ghosts(Level<D>& lv, int l) const;
   void transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells);
   void collect_leaves();
+  void collect_face_ghosts();  // face_ghosts_ for this distribution
   // Level::halo_read of every level, from the deepest up (a level's list depends on the
   // next one's).
   void collect_halo_read();
@@ -455,6 +464,7 @@ class Tree {
   // block of every halo an owned or ghost stencil reads: distributed_forest.hpp), so
   // fill_halo skips them.
   std::array<std::vector<std::vector<Index>>, 2> held_halo_;  // [HaloCells], then level
+  std::vector<std::vector<Index>> face_ghosts_;  // per level, distributed only
   Index num_cells_ = 0;
 
   std::vector<FieldSpec<D>> fields_;

@@ -419,6 +419,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
     roles_.clear();
     owned_leaves_.clear();
     owned_groups_.clear();
+    face_ghosts_.clear();
     global_depth_ = depth_;
     return;
   }
@@ -450,6 +451,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
     for (const Index g : lv.halo_read)
       if (holds(lv.halo_parent[static_cast<std::size_t>(g)])) read.push_back(g);
   }
+  collect_face_ghosts();
   global_depth_ = static_cast<int>(d->max(static_cast<std::int64_t>(depth_)));
   // The halos owned cells read, and the owned leaves' levels (sync_leaf_neighbors): the
   // local tree's own halos next to its placeholders would otherwise make every rank restrict
@@ -467,6 +469,42 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
   for (const Index c : owned_leaves_) leaf_level = std::min<std::int64_t>(leaf_level, level_of(c));
   leaf_sync_restrict_from_ = static_cast<int>(-d->max(-reads));
   leaf_sync_exchange_from_ = std::min(leaf_sync_restrict_from_, static_cast<int>(-d->max(-leaf_level)));
+}
+
+template <int D>
+void Tree<D>::collect_face_ghosts() {
+  face_ghosts_.assign(static_cast<std::size_t>(depth_) + 1, {});
+  std::vector<std::uint8_t> marked(static_cast<std::size_t>(num_cells_), 0);
+  auto mark = [&](int l, Index c) {
+    const Level<D>& lv = levels_[l];
+    const auto [begin, end] = owned_range(l);
+    const Index i = c - lv.base;
+    if (c < lv.base || c >= lv.active_end() || (i >= begin && i < end) || !lv.is_leaf(c) || !holds(c) ||
+        marked[static_cast<std::size_t>(c)])
+      return;
+    marked[static_cast<std::size_t>(c)] = 1;
+    face_ghosts_[static_cast<std::size_t>(l)].push_back(c);
+  };
+  auto mark_children = [&](int l, Index parent) {
+    const Level<D>& lv = levels_[l];
+    for (int b = 0; b < kChildren<D>; ++b) mark(l + 1, lv.first_child[static_cast<std::size_t>(parent - lv.base)] + b);
+  };
+  for (int l = 0; l <= depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    for (Index i = 0; i < lv.n_active; ++i) {
+      const Index c = lv.base + i;
+      if (!owns(c)) continue;
+      if (!lv.leaf[i]) mark_children(l, c);  // an owned parent's slots are restricted from them
+      const Index* row = lv.face_row(c);
+      for (int k = 0; k < kFaces<D>; ++k) {
+        const Index n = row[k];
+        if (n < lv.base || n >= lv.active_end()) continue;
+        if (lv.is_leaf(n)) mark(l, n);
+        else if (lv.leaf[i]) mark_children(l, n);  // the fine faces of an owned leaf's coarse ones
+      }
+    }
+  }
+  for (auto& list : face_ghosts_) std::ranges::sort(list);
 }
 
 template <int D>
