@@ -21,6 +21,7 @@
 //   (rho/dt)(u - u*) = div(mu grad u) + T,  T = div(mu grad u^T) (explicit, from u^n),
 // and the advection source is g + (1/rho)(div(mu grad u) + T). Without it the solver reads
 // no coefficient array (the benchmarked constant path).
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <span>
@@ -129,7 +130,11 @@ class NavierStokes {
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.
   using FaceForce = std::function<void(const tree::Tree<D>&, FaceField<D>& force)>;
-  void set_face_force(FaceForce f) { face_force_ = std::move(f); }
+  void set_face_force(FaceForce f) {
+    face_force_ = std::move(f);
+    if (!face_force_)
+      for (auto& component : force_) std::fill(component.begin(), component.end(), 0.0);
+  }
 
   // Density and viscosity as cell fields: `f` fills rho and mu (> 0) on the leaves; it is
   // called at the start of every step, after any adapt, so the properties may follow a
