@@ -257,7 +257,7 @@ void NavierStokes<D>::face_average_of_velocity(FaceField<D>& uf) {
 template <int D>
 void NavierStokes<D>::evaluate_force() {
   // Without a callback the field stays zero (resize_scratch and set_face_force zero it, the
-  // acceleration writes zeros only): no fill of D x num_cells values twice a step.
+  // acceleration writes zeros only): no fill of D x num_cells values every step.
   if (!face_force_) return;
   for (auto& f : force_) std::fill(f.begin(), f.end(), 0.0);
   face_force_(tree_, force_);
