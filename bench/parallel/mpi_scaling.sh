@@ -24,6 +24,13 @@ print(f"median s/step: 1 rank x 1 thread {med['1x1']:.4f}, 1 rank x 2 threads {m
 print(f"speed-up 2 ranks / 1 rank: {med['1x1'] / med['2x1']:.2f} (target >= 1.5)")
 print(f"OpenMP 1x2 / 1x1: {med['1x1'] / med['1x2']:.2f}")
 print(f"MPI 2x1 time / OpenMP 1x2 time: {med['2x1'] / med['1x2']:.2f} (target <= 1.10)")
+# The same ratios per repeat (the three runs of one repeat follow each other, so a drift of
+# the machine's speed over minutes cancels in them), and their medians.
+per = {c: [float(r['s_per_step']) for r in rows if r['config'] == c] for c in ('1x1', '1x2', '2x1')}
+speedups = sorted(a / b for a, b in zip(per['1x1'], per['2x1']))
+versus = sorted(b / a for a, b in zip(per['1x2'], per['2x1']))
+print(f"per repeat: speed-up median {statistics.median(speedups):.2f} (range {speedups[0]:.2f}-{speedups[-1]:.2f}), "
+      f"MPI/OpenMP median {statistics.median(versus):.2f} (range {versus[0]:.2f}-{versus[-1]:.2f})")
 print(f"2 ranks: bytes sent per step by the busiest rank {statistics.median(float(r['bytes_per_step']) for r in mpi):.3g}, "
       f"fraction of the step waiting {statistics.median(float(r['wait_fraction']) for r in mpi):.3f}, "
       f"of which the messages alone {statistics.median(float(r['exchange_fraction']) for r in mpi):.3f} (the rest: imbalance)")
