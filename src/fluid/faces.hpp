@@ -98,23 +98,19 @@ namespace detail {
 template <int D>
 inline void restrict_faces_at(const tree::Level<D>& lv, Index c, FaceField<D>& uf) {
   constexpr int C = tree::kChildren<D>;
+  // The mean of the lower faces along d of the children of `cell` (halo or active).
+  auto lower_faces_mean = [&uf, &lv](int d, Index cell) {
+    const Index first = lv.first_child[static_cast<std::size_t>(cell - lv.base)];
+    double sum = 0.0;
+    for (int b = 0; b < C; ++b)
+      if (!tree::child_bit(b, d)) sum += uf[d][first + b];
+    return sum / (C / 2);
+  };
   const Index* row = lv.face_row(c);
   for (int d = 0; d < D; ++d) {
     const Index lo = row[2 * d], hi = row[2 * d + 1];
-    if (lo < lv.active_end() && !lv.is_leaf(lo)) {  // fine faces: c's halo children's lower faces
-      const Index first = lv.first_child[static_cast<std::size_t>(c - lv.base)];
-      double sum = 0.0;
-      for (int b = 0; b < C; ++b)
-        if (!tree::child_bit(b, d)) sum += uf[d][first + b];
-      uf[d][c] = sum / (C / 2);
-    }
-    if (hi < lv.active_end() && !lv.is_leaf(hi)) {  // fine faces: hi's children's lower faces
-      const Index first = lv.first_child[static_cast<std::size_t>(hi - lv.base)];
-      double sum = 0.0;
-      for (int b = 0; b < C; ++b)
-        if (!tree::child_bit(b, d)) sum += uf[d][first + b];
-      uf[d][hi] = sum / (C / 2);
-    }
+    if (lo < lv.active_end() && !lv.is_leaf(lo)) uf[d][c] = lower_faces_mean(d, c);     // c's halo children's
+    if (hi < lv.active_end() && !lv.is_leaf(hi)) uf[d][hi] = lower_faces_mean(d, hi);  // hi's children's
   }
 }
 
