@@ -429,6 +429,7 @@ class Tree {
   void transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells);
   void collect_leaves();
   void collect_face_ghosts();  // face_ghosts_ for this distribution
+  void collect_held_halos();   // held_halo_ for this distribution
   // Level::halo_read of every level, from the deepest up (a level's list depends on the
   // next one's).
   void collect_halo_read();
