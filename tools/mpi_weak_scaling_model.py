@@ -18,8 +18,10 @@ BENCH_LINES: output lines of `capsflow_mpi_bench uniform128 stokes STEPS` on 1 r
   domain, its whole shell is ghosts); neighbour ranks min(26, P - 1);
 - an exchange costs alpha per message and beta per byte; the exchanges per step and level
   are the measured ones, those after a red-black half-sweep carrying one colour (half the
-  ghosts); the compute time per cell and step is the 1-rank run's; no
-  overlap of messages with work.
+  ghosts); the exchanges of every level at once (all_level_exchanges_per_step, each carrying
+  all_level_fields_per_exchange fields) cost one message per neighbour and one gather of the
+  replicated levels, and the bytes of every level's ghosts for each field; the compute time
+  per cell and step is the 1-rank run's; no overlap of messages with work.
 Prints, per rank count, the step time split into compute and messages, the level whose
 messages cost most, and the efficiency; and checks the ghost model against the ranks
 measured here.
@@ -68,6 +70,8 @@ def main():
     e_fine, e_mid, e_rep = exchanges[-1], max(exchanges[1:-1] or [exchanges[-1]]), exchanges[0]
     colour = ints(ref.get("colour_exchanges_per_step_per_level", "")) or [0] * len(exchanges)
     c_fine, c_mid = colour[-1], max(colour[1:-1] or [colour[-1]])
+    e_all = float(ref.get("all_level_exchanges_per_step", 0))
+    f_all = float(ref.get("all_level_fields_per_exchange", 0))
 
     # Shape factor of the ghost shells, from the measured non-replicated levels.
     print("ghost cells of the busiest rank, measured against the cube-shell model (w = 2 finest, 3 above):")
@@ -88,7 +92,8 @@ def main():
     n = cells / int(ref["ranks"])  # finest cells per rank, kept in weak scaling
     print(f"\nweak scaling at {n:.3g} finest cells per rank, alpha = {alpha:g} s, beta = {beta:g} s/B, "
           f"{t_cell * 1e9:.1f} ns per cell and step, exchanges per step: finest {e_fine} ({c_fine} one-colour), "
-          f"others {e_mid} ({c_mid} one-colour), replicated {e_rep}")
+          f"others {e_mid} ({c_mid} one-colour), replicated {e_rep}, all levels at once {e_all:g} "
+          f"({f_all:g} fields each)")
     print(f"{'P':>5} {'levels':>6} {'compute s':>10} {'messages s':>10} {'worst level':>12} {'eff p2p':>8} "
           f"{'eff allgather':>13}")
     detail = []
@@ -97,6 +102,7 @@ def main():
         levels = max(levels, finest)
         compute = t_cell * n * (8 / 7)  # leaves and parents
         comm_p2p = comm_ag = 0.0
+        all_bytes = 0.0  # one all-level exchange of one field: every level's ghosts (or cells)
         worst = (0.0, -1)
         for l in range(levels + 1):
             total = 8 ** l
@@ -106,18 +112,24 @@ def main():
                 cost_p2p = alpha * (p - 1) + beta * 8 * total
                 cost_ag = alpha * math.ceil(math.log2(p)) + beta * 8 * total
                 e = e_rep
+                all_bytes += 8 * total
             else:
                 g = (factor if p <= 8 else 1.0) * shell(total / p, 2 if l == levels else 3)
                 e = e_fine if l == levels else e_mid
                 halves = c_fine if l == levels else c_mid  # of e, one-colour exchanges
                 # per exchange, averaged: alpha per message, beta per byte of the ghosts sent
                 cost_p2p = cost_ag = alpha * min(26, p - 1) + beta * 8 * g * (1 - 0.5 * halves / e)
+                all_bytes += 8 * g
             comm_p2p += e * cost_p2p
             comm_ag += e * cost_ag
             worst = max(worst, (e * cost_ag, l))
             if p == 1024:
                 detail.append((l, total / p, "replicated" if total <= min(64 * p, 32768) else
                                f"ghosts/owned {g / (total / p):.1f}", e * cost_ag))
+        if p > 1 and e_all > 0:  # the exchanges of every level at once
+            whole = alpha * (min(26, p - 1) + math.ceil(math.log2(p))) + beta * all_bytes * f_all
+            comm_p2p += e_all * whole
+            comm_ag += e_all * whole
         eff_p2p = compute / (compute + comm_p2p)
         eff_ag = compute / (compute + comm_ag)
         print(f"{p:>5} {levels:>6} {compute:>10.3f} {comm_ag:>10.3f} {worst[1]:>12} {eff_p2p:>8.2f} {eff_ag:>13.2f}")

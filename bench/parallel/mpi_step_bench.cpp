@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
   // What the messages alone cost: each level's exchange timed back to back (ranks in step,
   // so no imbalance inside), times its exchanges per step. The most that overlapping the
   // exchanges with interior work could hide; the rest of the waiting is imbalance.
-  double exchange_seconds = 0.0, whole_exchanges = 0.0;
+  double exchange_seconds = 0.0, whole_exchanges = 0.0, whole_fields = 0.0;
   if (forest) {
     const auto traffic = forest->traffic();
     std::vector<double> scratch(static_cast<std::size_t>(t.num_cells()), 1.0);
@@ -118,16 +118,17 @@ int main(int argc, char** argv) {
       exchange_seconds += whole_per_step * parallel::global_max(comm, each);
     }
     whole_exchanges = whole_per_step;
+    if (traffic.whole_exchanges > 0) whole_fields = double(traffic.whole_exchange_fields) / double(traffic.whole_exchanges);
   }
   const auto leaves = static_cast<long long>(t.global_leaves());  // collective: every rank
   if (comm.is_root())
     std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
                 "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f ghosts_per_level=%s "
                 "neighbours_per_level=%s exchanges_per_step_per_level=%s colour_exchanges_per_step_per_level=%s "
-                "all_level_exchanges_per_step=%.0f exchange_fraction=%.3f\n",
+                "all_level_exchanges_per_step=%.0f all_level_fields_per_exchange=%.1f exchange_fraction=%.3f\n",
                 which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
                 leaves, seconds, double(cycles) / steps, busiest, 8 * busiest,
                 wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), colour_exchanges.c_str(),
-                whole_exchanges, exchange_seconds / seconds);
+                whole_exchanges, whole_fields, exchange_seconds / seconds);
   return 0;
 }
