@@ -3,6 +3,8 @@
 // (levels) and boundary.hpp (sides).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -76,13 +78,33 @@ void Tree<D>::restrict_level(int l, std::span<double> v) const {
 }
 
 template <int D>
+void Tree<D>::poison_dropped_halos(int l, std::span<double> v, HaloCells which) const {
+  constexpr int C = kChildren<D>;
+  const Level<D>& lv = levels_[l];
+  std::vector<std::uint8_t> kept(static_cast<std::size_t>(lv.n_halo / C), 0);
+  for (const Index g : held_halo_[static_cast<std::size_t>(which)][static_cast<std::size_t>(l)]) kept[static_cast<std::size_t>(g)] = 1;
+  auto poison = [&](Index g) {
+    if (kept[static_cast<std::size_t>(g)]) return;
+    for (int k = 0; k < C; ++k) v[static_cast<std::size_t>(lv.halo_begin() + g * C + k)] = std::numeric_limits<double>::quiet_NaN();
+  };
+  if (which == HaloCells::all) {
+    for (Index g = 0; g < lv.n_halo / C; ++g) poison(g);
+  } else {
+    for (const Index g : lv.halo_read) poison(g);
+  }
+}
+
+template <int D>
 void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_halo: the field does not have num_cells entries");
   constexpr int C = kChildren<D>;
   if (l <= 0 || l > depth_) return;
   const Level<D>& lv = levels_[l];
   const Level<D>& coarse = levels_[l - 1];
-  // One rank: every group, or Level::halo_read; N ranks: those whose coarse leaf is real.
+  // One rank: every group, or Level::halo_read; N ranks: those whose values reach owned
+  // cells (Tree::collect_held_halos).
+  if constexpr (kAssertions)
+    if (dist_) poison_dropped_halos(l, v, which);
   const bool all = which == HaloCells::all && !dist_;
   const std::vector<Index>& list =
       dist_ ? held_halo_[static_cast<std::size_t>(which)][static_cast<std::size_t>(l)] : lv.halo_read;
@@ -334,6 +356,7 @@ void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, 
 template FieldId Tree<2>::add_field(FieldSpec<2>);
 template void Tree<2>::restrict_level(int, std::span<double>) const;
 template void Tree<2>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
+template void Tree<2>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
 template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
@@ -349,6 +372,7 @@ template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index)
 template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
 template void Tree<3>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
+template void Tree<3>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
 template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
