@@ -48,12 +48,6 @@ std::array<std::span<double>, D> components(FaceField<D>& f) {
   return out;
 }
 
-// Calls f(d, lower, upper, h, level) for every fine face: lower and upper are the
-// same-level cells on either side along d, h their size; the face's slot is `upper`.
-// Parallel over leaves. On N ranks, the faces an owned leaf reads: it reads its own slots
-// and its upper neighbours' (Tree::face_ghosts), so the loop visits the owned groups and
-// those ghosts only. The other ghosts' and the placeholders' faces are read by nothing
-// but other ghosts (whose values come from their owners by the exchanges).
 namespace detail {
 
 // The faces for_each_face calls f for at leaf c. A function with the level's scalars as
@@ -72,6 +66,13 @@ inline void faces_of_leaf(const tree::Level<D>& lv, Index c, double h, Index act
 
 }  // namespace detail
 
+// Calls f(d, lower, upper, h, level) for every fine face: lower and upper are the
+// same-level cells on either side along d, h their size; the face's slot is `upper`.
+// Parallel over leaves. On N ranks, the faces that owned cells' stencils read: the loop
+// visits the owned groups and Tree::face_ghosts (the ghosts whose slots an owned leaf, an
+// owned parent's restriction or the advection's upwind terms read). The other ghosts' and
+// the placeholders' faces are read by other ghosts only, whose values come from their
+// owners by the exchanges.
 template <int D, class F>
 void for_each_face(const tree::Tree<D>& t, F&& f) {
   const bool distributed = t.distributed();
