@@ -430,6 +430,8 @@ class Tree {
   void collect_leaves();
   void collect_face_ghosts();  // face_ghosts_ for this distribution
   void collect_held_halos();   // held_halo_ for this distribution
+  // sync's second half: halos (prolongation p, linear for none) and ghosts, level by level.
+  void fill_outside_leaves(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const;
   // Checked builds, N ranks: the halo groups of level l that one rank's fill would fill and
   // this rank's held_halo_ drops get NaN, so that a stencil reading one shows in the tests.
   void poison_dropped_halos(int l, std::span<double> v, HaloCells which) const;

@@ -245,13 +245,17 @@ void Tree<D>::sync(Distribution::Fields fields, std::span<const BoundaryConditio
   CAPSFLOW_ASSERT(fields.size() == bcs.size(), "Tree::sync: one boundary condition per field");
   for (const std::span<double> v : fields)
     CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync: a field does not have num_cells entries");
-  if (p == Prolongation::none) p = Prolongation::linear;
   restrict_and_exchange(fields, 0);
-  for (std::size_t f = 0; f < fields.size(); ++f)
-    for (int l = 0; l <= depth_; ++l) {
-      fill_halo(l, fields[f], p);
-      fill_ghosts(l, fields[f], bcs[f]);
-    }
+  for (std::size_t f = 0; f < fields.size(); ++f) fill_outside_leaves(fields[f], bcs[f], p);
+}
+
+template <int D>
+void Tree<D>::fill_outside_leaves(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
+  if (p == Prolongation::none) p = Prolongation::linear;
+  for (int l = 0; l <= depth_; ++l) {
+    fill_halo(l, v, p);
+    fill_ghosts(l, v, bc);
+  }
 }
 
 template <int D>
@@ -291,14 +295,8 @@ void Tree<D>::sync(std::span<const FieldId> ids) {
   std::vector<std::span<double>> fields;
   for (const FieldId f : ids) fields.emplace_back(data_.at(f));
   restrict_and_exchange(fields, 0);
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    const FieldSpec<D>& spec = fields_.at(ids[k]);
-    const Prolongation p = spec.prolongation == Prolongation::none ? Prolongation::linear : spec.prolongation;
-    for (int l = 0; l <= depth_; ++l) {
-      fill_halo(l, fields[k], p);
-      fill_ghosts(l, fields[k], spec.bc);
-    }
-  }
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    fill_outside_leaves(fields[k], fields_.at(ids[k]).bc, fields_.at(ids[k]).prolongation);
 }
 
 template <int D>
@@ -361,6 +359,7 @@ template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
+template void Tree<2>::fill_outside_leaves(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(std::span<const FieldId>);
 template void Tree<2>::sync(Distribution::Fields, std::span<const BoundaryConditions<2>>, Prolongation) const;
 template void Tree<2>::restrict_and_exchange(Distribution::Fields, int) const;
@@ -377,6 +376,7 @@ template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);
+template void Tree<3>::fill_outside_leaves(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(std::span<const FieldId>);
 template void Tree<3>::sync(Distribution::Fields, std::span<const BoundaryConditions<3>>, Prolongation) const;
 template void Tree<3>::restrict_and_exchange(Distribution::Fields, int) const;
