@@ -34,5 +34,8 @@ print(f"per repeat: speed-up median {statistics.median(speedups):.2f} (range {sp
 print(f"2 ranks: bytes sent per step by the busiest rank {statistics.median(float(r['bytes_per_step']) for r in mpi):.3g}, "
       f"fraction of the step waiting {statistics.median(float(r['wait_fraction']) for r in mpi):.3f}, "
       f"of which the messages alone {statistics.median(float(r['exchange_fraction']) for r in mpi):.3f} (the rest: imbalance)")
+print(f"2 ranks: fraction of the step waiting in the relaxation's one-colour exchanges "
+      f"{statistics.median(float(r['wait_colour_fraction']) for r in mpi):.3f}, in reductions (not in the waiting above) "
+      f"{statistics.median(float(r['reduce_fraction']) for r in mpi):.3f}")
 PY
 rm -f "$out"

@@ -54,6 +54,8 @@ int main(int argc, char** argv) {
   fluid::NavierStokes<3> ns(t, o);
   (void)ns.step();
   const double wait0 = forest ? forest->seconds_waiting() : 0.0;
+  const double colour0 = forest ? forest->seconds_waiting_colour() : 0.0;
+  const double reduce0 = forest ? forest->seconds_reducing() : 0.0;
   const auto sent0 = forest ? forest->values_sent() : 0;
   if (comm.distributed()) MPI_Barrier(comm.handle());
   const auto start = std::chrono::steady_clock::now();
@@ -62,16 +64,30 @@ int main(int argc, char** argv) {
   double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
   const double waiting = forest ? (forest->seconds_waiting() - wait0) / steps : 0.0;
   const double sent = forest ? double(forest->values_sent() - sent0) / steps : 0.0;
+  const double waiting_colour = forest ? (forest->seconds_waiting_colour() - colour0) / steps : 0.0;
+  const double reducing = forest ? (forest->seconds_reducing() - reduce0) / steps : 0.0;
   double wait_fraction = waiting / seconds;
+  double colour_fraction = waiting_colour / seconds, reduce_fraction = reducing / seconds;
   seconds = parallel::global_max(comm, seconds);
   wait_fraction = parallel::global_max(comm, wait_fraction);
+  colour_fraction = parallel::global_max(comm, colour_fraction);
+  reduce_fraction = parallel::global_max(comm, reduce_fraction);
   const double busiest = parallel::global_max(comm, sent);
   // Per level (the busiest rank's): ghost cells, neighbour ranks, exchanges per step.
-  std::string per_level, messages, exchanges, colour_exchanges;
+  std::string per_level, messages, exchanges, colour_exchanges, level_imbalance;
   if (forest) {
     const auto traffic = forest->traffic();
     for (std::size_t l = 0; l < traffic.ghosts_per_level.size(); ++l) {
       const char* sep = l ? "/" : "";
+      const auto level = static_cast<int>(l);
+      const auto [first, last] = level <= t.depth() && level > 0 ? t.owned_groups(level) : std::pair<tree::Index, tree::Index>{0, 0};
+      // The busiest rank's owned groups of the level over the mean, in percent: the sweeps
+      // of a level end in exchanges, so each level's imbalance is waited for on its own.
+      const std::int64_t groups = last - first, most = parallel::global_max(comm, groups);
+      const std::int64_t total = parallel::global_sum(comm, groups);
+      char percent[32];
+      std::snprintf(percent, sizeof percent, "%s%.1f", sep, total > 0 ? 100.0 * double(most) * comm.size() / double(total) : 100.0);
+      level_imbalance += percent;
       per_level += sep + std::to_string(parallel::global_max(comm, traffic.ghosts_per_level[l]));
       messages += sep + std::to_string(parallel::global_max(comm, traffic.messages_per_level[l]));
       exchanges += sep + std::to_string(parallel::global_max(comm, traffic.exchanges_per_level[l] +
@@ -123,12 +139,14 @@ int main(int argc, char** argv) {
   const auto leaves = static_cast<long long>(t.global_leaves());  // collective: every rank
   if (comm.is_root())
     std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
-                "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f ghosts_per_level=%s "
+                "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f wait_colour_fraction=%.3f "
+                "reduce_fraction=%.3f ghosts_per_level=%s "
                 "neighbours_per_level=%s exchanges_per_step_per_level=%s colour_exchanges_per_step_per_level=%s "
-                "all_level_exchanges_per_step=%.0f all_level_fields_per_exchange=%.1f exchange_fraction=%.3f\n",
+                "busiest_rank_groups_percent_of_mean_per_level=%s all_level_exchanges_per_step=%.0f all_level_fields_per_exchange=%.1f "
+                "exchange_fraction=%.3f\n",
                 which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
                 leaves, seconds, double(cycles) / steps, busiest, 8 * busiest,
-                wait_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), colour_exchanges.c_str(),
-                whole_exchanges, whole_fields, exchange_seconds / seconds);
+                wait_fraction, colour_fraction, reduce_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), colour_exchanges.c_str(),
+                level_imbalance.c_str(), whole_exchanges, whole_fields, exchange_seconds / seconds);
   return 0;
 }

@@ -457,8 +457,10 @@ void DistributedForest<D>::exchange_colour(int level, std::span<double> v, int c
   if (colour_exchanges_.size() < level_peers_.size()) colour_exchanges_.resize(level_peers_.size(), 0);
   ++colour_exchanges_[static_cast<std::size_t>(level)];
   const auto k = static_cast<std::size_t>(colour & 1);
+  const double waited = waiting_;
   exchange_lists(peers, kTagBase + level, {&v, 1},
                  [k](const Peer& p) { return std::pair{&p.send_colour[k], &p.receive_colour[k]}; });
+  waiting_colour_ += waiting_ - waited;
 }
 
 template <int D>
@@ -523,23 +525,32 @@ void DistributedForest<D>::exchange_lists(std::span<const Peer> peers, int tag, 
 }
 
 template <int D>
+template <class F>
+auto DistributedForest<D>::timed_reduction(F&& f) const {
+  const auto start = std::chrono::steady_clock::now();
+  const auto result = f();
+  reducing_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+template <int D>
 double DistributedForest<D>::sum(const parallel::ExactSum& local) const {
-  return parallel::global_sum(comm_, local);
+  return timed_reduction([&] { return parallel::global_sum(comm_, local); });
 }
 
 template <int D>
 double DistributedForest<D>::max(double local) const {
-  return parallel::global_max(comm_, local);
+  return timed_reduction([&] { return parallel::global_max(comm_, local); });
 }
 
 template <int D>
 std::int64_t DistributedForest<D>::sum(std::int64_t local) const {
-  return parallel::global_sum(comm_, local);
+  return timed_reduction([&] { return parallel::global_sum(comm_, local); });
 }
 
 template <int D>
 std::int64_t DistributedForest<D>::max(std::int64_t local) const {
-  return parallel::global_max(comm_, local);
+  return timed_reduction([&] { return parallel::global_max(comm_, local); });
 }
 
 template <int D>

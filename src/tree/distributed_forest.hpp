@@ -116,8 +116,12 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
     std::int64_t whole_exchange_fields = 0;  // the fields they carried, summed
   };
   [[nodiscard]] Traffic traffic() const;
-  // Seconds spent in MPI_Waitall and values sent, since construction.
+  // Seconds spent in MPI_Waitall and MPI_Allgatherv (of which in the one-colour exchanges
+  // of the relaxation), in the reductions (MPI_Allreduce: they wait for the slowest rank
+  // too), and values sent, since construction.
   [[nodiscard]] double seconds_waiting() const { return waiting_; }
+  [[nodiscard]] double seconds_waiting_colour() const { return waiting_colour_; }
+  [[nodiscard]] double seconds_reducing() const { return reducing_; }
   [[nodiscard]] std::int64_t values_sent() const { return values_sent_; }
 
  private:
@@ -173,7 +177,10 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   std::vector<std::vector<Peer>> level_peers_;  // per level, ranks ascending
   mutable std::vector<std::vector<double>> send_buffers_, receive_buffers_;
   mutable std::vector<MPI_Request> requests_;
-  mutable double waiting_ = 0.0;
+  mutable double waiting_ = 0.0, waiting_colour_ = 0.0, reducing_ = 0.0;
+  // f() timed into reducing_.
+  template <class F>
+  auto timed_reduction(F&& f) const;
   mutable std::vector<std::int64_t> exchanges_, colour_exchanges_;  // per level
   mutable std::int64_t whole_exchanges_ = 0, whole_exchange_fields_ = 0;
   mutable std::int64_t values_sent_ = 0;
