@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
   const double wait0 = forest ? forest->seconds_waiting() : 0.0;
   const double colour0 = forest ? forest->seconds_waiting_colour() : 0.0;
   const double reduce0 = forest ? forest->seconds_reducing() : 0.0;
+  const auto reductions0 = forest ? forest->reductions() : 0;
   const auto sent0 = forest ? forest->values_sent() : 0;
   if (comm.distributed()) MPI_Barrier(comm.handle());
   const auto start = std::chrono::steady_clock::now();
@@ -66,6 +67,7 @@ int main(int argc, char** argv) {
   const double sent = forest ? double(forest->values_sent() - sent0) / steps : 0.0;
   const double waiting_colour = forest ? (forest->seconds_waiting_colour() - colour0) / steps : 0.0;
   const double reducing = forest ? (forest->seconds_reducing() - reduce0) / steps : 0.0;
+  const double reductions = forest ? double(forest->reductions() - reductions0) / steps : 0.0;
   double wait_fraction = waiting / seconds;
   double colour_fraction = waiting_colour / seconds, reduce_fraction = reducing / seconds;
   seconds = parallel::global_max(comm, seconds);
@@ -137,16 +139,19 @@ int main(int argc, char** argv) {
     if (traffic.whole_exchanges > 0) whole_fields = double(traffic.whole_exchange_fields) / double(traffic.whole_exchanges);
   }
   const auto leaves = static_cast<long long>(t.global_leaves());  // collective: every rank
+  // The local tree's cells (owned, ghosts, placeholders, halos and wall ghosts: what each
+  // rank's fields hold), the busiest rank's: against one rank's tree, the memory per rank.
+  const auto local_cells = static_cast<long long>(parallel::global_max(comm, std::int64_t{t.num_cells()}));
   if (comm.is_root())
-    std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld s_per_step=%.4f cycles_per_step=%.1f "
+    std::printf("case=%s physics=%s ranks=%d threads=%s leaves=%lld local_cells=%lld s_per_step=%.4f cycles_per_step=%.1f "
                 "values_sent_per_step=%.0f bytes_per_step=%.0f wait_fraction=%.3f wait_colour_fraction=%.3f "
-                "reduce_fraction=%.3f ghosts_per_level=%s "
+                "reduce_fraction=%.3f reductions_per_step=%.1f ghosts_per_level=%s "
                 "neighbours_per_level=%s exchanges_per_step_per_level=%s colour_exchanges_per_step_per_level=%s "
                 "busiest_rank_groups_percent_of_mean_per_level=%s all_level_exchanges_per_step=%.0f all_level_fields_per_exchange=%.1f "
                 "exchange_fraction=%.3f\n",
                 which.c_str(), physics.c_str(), comm.size(), std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?",
-                leaves, seconds, double(cycles) / steps, busiest, 8 * busiest,
-                wait_fraction, colour_fraction, reduce_fraction, per_level.c_str(), messages.c_str(), exchanges.c_str(), colour_exchanges.c_str(),
+                leaves, local_cells, seconds, double(cycles) / steps, busiest, 8 * busiest,
+                wait_fraction, colour_fraction, reduce_fraction, reductions, per_level.c_str(), messages.c_str(), exchanges.c_str(), colour_exchanges.c_str(),
                 level_imbalance.c_str(), whole_exchanges, whole_fields, exchange_seconds / seconds);
   return 0;
 }

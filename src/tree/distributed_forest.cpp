@@ -530,6 +530,7 @@ auto DistributedForest<D>::timed_reduction(F&& f) const {
   const auto start = std::chrono::steady_clock::now();
   const auto result = f();
   reducing_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++reductions_;
   return result;
 }
 

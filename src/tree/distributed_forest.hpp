@@ -122,6 +122,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   [[nodiscard]] double seconds_waiting() const { return waiting_; }
   [[nodiscard]] double seconds_waiting_colour() const { return waiting_colour_; }
   [[nodiscard]] double seconds_reducing() const { return reducing_; }
+  [[nodiscard]] std::int64_t reductions() const { return reductions_; }
   [[nodiscard]] std::int64_t values_sent() const { return values_sent_; }
 
  private:
@@ -178,6 +179,7 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   mutable std::vector<std::vector<double>> send_buffers_, receive_buffers_;
   mutable std::vector<MPI_Request> requests_;
   mutable double waiting_ = 0.0, waiting_colour_ = 0.0, reducing_ = 0.0;
+  mutable std::int64_t reductions_ = 0;
   // f() timed into reducing_.
   template <class F>
   auto timed_reduction(F&& f) const;
