@@ -145,9 +145,23 @@ void Tree<D>::prolong_level(int l, std::span<double> v, Prolongation p) const {
 }
 
 template <int D>
+void Tree<D>::poison_dropped_wall_ghosts(int l, std::span<double> v) const {
+  const Level<D>& lv = levels_[l];
+  std::vector<std::uint8_t> kept(static_cast<std::size_t>(lv.n_ghost), 0);
+  for (const Index g : held_ghost_fill_[static_cast<std::size_t>(l)]) kept[static_cast<std::size_t>(g - lv.ghost_begin())] = 1;
+  for (const Index g : lv.ghost_fill)
+    if (!kept[static_cast<std::size_t>(g - lv.ghost_begin())]) v[static_cast<std::size_t>(g)] = std::numeric_limits<double>::quiet_NaN();
+}
+
+template <int D>
 void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_ghosts: the field does not have num_cells entries");
   const Level<D>& lv = levels_[l];
+  if constexpr (kAssertions)
+    if (dist_) poison_dropped_wall_ghosts(l, v);
+  // N ranks: the wall ghosts whose source holds a real value (collect_held_wall_ghosts).
+  const std::vector<Index>& ghost_fill = dist_ ? held_ghost_fill_[static_cast<std::size_t>(l)] : lv.ghost_fill;
+  const Index ghost_fill_faces = dist_ ? held_ghost_fill_faces_[static_cast<std::size_t>(l)] : lv.ghost_fill_faces;
   const double h = cell_size_[l];
   const Index g0 = lv.ghost_begin();
   bool constant = true;
@@ -167,13 +181,13 @@ void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D
     // Face ghosts read active or halo cells only, so they go in parallel (a refined wall
     // has many; the multigrid refills them after every sweep). Edges and corners read
     // face ghosts: after them, in order.
-    const Index faces = lv.ghost_fill_faces, all = static_cast<Index>(lv.ghost_fill.size());
+    const Index faces = ghost_fill_faces, all = static_cast<Index>(ghost_fill.size());
 #pragma omp parallel for schedule(static) if (faces > kParallelMin)
-    for (Index i = 0; i < faces; ++i) fill(lv.ghost_fill[i]);
-    for (Index i = faces; i < all; ++i) fill(lv.ghost_fill[i]);
+    for (Index i = 0; i < faces; ++i) fill(ghost_fill[i]);
+    for (Index i = faces; i < all; ++i) fill(ghost_fill[i]);
     return;
   }
-  for (const Index g : lv.ghost_fill) {
+  for (const Index g : ghost_fill) {
     const Index local = g - g0;
     const int side = lv.ghost_side[local];
     const SideCondition<D>& sc = bc.side[side];
@@ -355,6 +369,7 @@ template FieldId Tree<2>::add_field(FieldSpec<2>);
 template void Tree<2>::restrict_level(int, std::span<double>) const;
 template void Tree<2>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
 template void Tree<2>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
+template void Tree<2>::poison_dropped_wall_ghosts(int, std::span<double>) const;
 template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
@@ -372,6 +387,7 @@ template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
 template void Tree<3>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
 template void Tree<3>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
+template void Tree<3>::poison_dropped_wall_ghosts(int, std::span<double>) const;
 template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const;
 template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;

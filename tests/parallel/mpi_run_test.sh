@@ -8,7 +8,7 @@
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
 #  3. carried faces (fluid.carry_faces) on 2 ranks: uniform as one rank, adaptive refused;
 #     a uniform grid too big for this node, and a case with capsules, on 2 ranks are refused:
-#     exit 2, one capsflow line, no output folder.
+#     exit 2, one capsflow line, no output folder (under Open MPI's mpirun -q, nothing else).
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -81,3 +81,13 @@ refused carried-faces-adaptive 'carry_faces' "${carry[@]}"
 refused huge-grid 'memory estimate .* on a node holding 2 of the 2 ranks' \
   run "$cases/duct_3d.toml" --adapt off --set adapt.max_level=10
 refused capsules 'capsule' run "$cases/relaxation_quick.toml"
+
+# With Open MPI's mpirun -q (README), a refusal prints capsflow's one line and nothing else.
+if "$mpiexec" --version 2>&1 | grep -qi "open-\?mpi\|openrte"; then
+  "$mpiexec" -q -n 2 --oversubscribe "$capsflow" run "$cases/relaxation_quick.toml" --quiet --out "$dir/quiet" > "$dir/all" 2>&1
+  status=$?
+  if [ "$status" -ne 2 ] || [ "$(wc -l < "$dir/all")" -ne 1 ] || ! grep -q '^capsflow:.*capsule' "$dir/all"; then
+    fail "mpirun -q: expected exit 2 and capsflow's one line alone; got $status: $(cat "$dir/all")"
+  fi
+  echo "mpirun -q: one line"
+fi
