@@ -30,10 +30,11 @@ namespace capsflow::fluid {
 namespace {
 
 // Slopes of f along every direction on the leaves (central or minmod), halo injected.
+// Distributed: on the owned groups only; the ghosts' slopes come from their owners.
 template <int D>
 void slopes(const tree::Tree<D>& t, std::span<const double> f, bool limited,
             std::array<std::vector<double>, D>& out) {
-  for_each_leaf_level<D>(t, [&](Index c, int l, double h) {
+  for_each_owned_leaf_level<D>(t, [&](Index c, int l, double h) {
     const Index* row = t.level(l).face_row(c);
     for (int d = 0; d < D; ++d) {
       const double lo = f[row[2 * d]], hi = f[row[2 * d + 1]];
@@ -85,15 +86,15 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       viscous.apply_leaves(u[d], src);
       const std::span<const double> rho = tree_.values(rho_field_);
       const std::vector<double>& transpose = transpose_[d];
-      tree_.for_each_leaf([&](Index c) { src[c] = gd[c] + (src[c] + transpose[c]) / rho[c]; });
+      tree_.for_each_owned_leaf([&](Index c) { src[c] = gd[c] + (src[c] + transpose[c]) / rho[c]; });
     } else {
       const EllipticOperator<D> laplacian(tree_, {mu_ / options_.density}, {}, conditions_.velocity[d]);
       laplacian.apply_leaves(u[d], src);
-      tree_.for_each_leaf([&](Index c) { src[c] += gd[c]; });
+      tree_.for_each_owned_leaf([&](Index c) { src[c] += gd[c]; });
     }
     g[d] = src;
   }
-  tree_.exchange_all(components<D>(source_));  // distributed: as the slopes
+  tree_.exchange_all(components<D>(source_));  // distributed: as the slopes (owned leaves computed)
   for (int d = 0; d < D; ++d) inject_halo<D>(tree_, source_[d]);
   sync_velocity();  // back to the linear halos the slopes and faces use
   // 1. Prediction of the normal velocity on every face, then its approximate projection.
@@ -128,7 +129,8 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
     });
     restrict_faces<D>(tree_, flux);
     std::span<double> uc = tree_.values(u_[c]);
-    for_each_leaf_level<D>(tree_, [&](Index cell, int l, double h) {
+    // Distributed: owned groups only; the ghosts' new values come by the exchange below.
+    for_each_owned_leaf_level<D>(tree_, [&](Index cell, int l, double h) {
       const Index* row = tree_.level(l).face_row(cell);
       double div = 0.0;
       for (int d = 0; d < D; ++d) div += flux[d][row[2 * d + 1]] - flux[d][cell];
