@@ -100,11 +100,29 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
   }
 }
 
-CapsuleDiagnostics CapsuleSet::diagnostics() const {
-  const ibm::Capsule& c = coupling_->capsule(0);
+CapsuleDiagnostics CapsuleSet::diagnostics(int k) const {
+  const ibm::Capsule& c = coupling_->capsule(k);
   const auto s = membrane::shape_diagnostics(c.model.mesh(), c.x);
-  return {s.d12, s.d12_bbox, (s.area - reference_area_[0]) / reference_area_[0],
-          (s.volume - reference_volume_[0]) / reference_volume_[0]};
+  const auto i = static_cast<std::size_t>(k);
+  return {s.d12, s.d12_bbox, (s.area - reference_area_[i]) / reference_area_[i],
+          (s.volume - reference_volume_[i]) / reference_volume_[i], s.centroid};
+}
+
+std::vector<std::string> CapsuleSet::columns() {
+  return {"step", "t", "capsule", "D12", "D12_bbox", "area_rel", "volume_rel", "x", "y", "z",
+          "E_membrane", "P_nodes", "W_membrane"};
+}
+
+std::vector<double> CapsuleSet::rows(long step, double t) const {
+  std::vector<double> out;
+  for (int k = 0; k < coupling_->num_capsules(); ++k) {
+    const CapsuleDiagnostics m = diagnostics(k);
+    const double energy = coupling_->membrane_energy(k);
+    out.insert(out.end(), {double(step), t, double(k), m.d12, m.d12_bbox, m.area_rel, m.volume_rel, m.centroid.x(),
+                           m.centroid.y(), m.centroid.z(), energy, coupling_->node_power(k),
+                           coupling_->capsule(k).work});
+  }
+  return out;
 }
 
 void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries& series) const {
@@ -147,6 +165,8 @@ std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
     const auto& xa = coupling_->capsule(i).x_at_adapt;
     extras.push_back({fmt::format("capsule_{}_positions_at_adapt", i), {std::size_t(xa.cols()), 3},
                       {xa.data(), xa.data() + xa.size()}});
+    // The membrane's work since the run began (the energy budget's W_membrane).
+    extras.push_back({fmt::format("capsule_{}_work", i), {1}, {coupling_->capsule(i).work}});
     // V of the last step: the next step's AB2 needs it (ibm/capsule_coupling.hpp).
     const auto& v = coupling_->capsule(i).velocity;
     if (v.cols() == x.cols())
@@ -176,6 +196,9 @@ void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras, std::int64_t
     for (const auto& e : extras)
       if (e.name == name + "_at_adapt" && e.values.size() == std::size_t(x.size()))
         std::copy(e.values.begin(), e.values.end(), xa.data());
+    // Without it (an older checkpoint) the work counts from the restart on.
+    for (const auto& e : extras)
+      if (e.name == fmt::format("capsule_{}_work", i) && e.values.size() == 1) coupling_->capsule(i).work = e.values[0];
     // Without it (an older checkpoint) the first step after the restart is Euler.
     Eigen::Matrix3Xd& v = coupling_->capsule(i).velocity;
     for (const auto& e : extras)

@@ -3,6 +3,7 @@
 // by the immersed-boundary coupling, measured (the seed's diagnostics) and written out.
 #include <filesystem>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "ibm/capsule_coupling.hpp"
@@ -14,6 +15,7 @@ namespace capsflow::app {
 
 struct CapsuleDiagnostics {
   double d12 = 0.0, d12_bbox = 0.0, area_rel = 0.0, volume_rel = 0.0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
 };
 
 class CapsuleSet {
@@ -23,9 +25,16 @@ class CapsuleSet {
   CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns);
 
   ibm::CapsuleCoupling& coupling() { return *coupling_; }
-  // Capsule 0, against its stress-free reference (discrete sphere: area_rel and volume_rel
+  // Capsule k, against its stress-free reference (discrete sphere: area_rel and volume_rel
   // measure the run, not the mesh's approximation of 4 pi a^2).
-  CapsuleDiagnostics diagnostics() const;
+  CapsuleDiagnostics diagnostics(int k) const;
+  // capsules.csv: one row per capsule and output step, in the order of columns(): its shape
+  // (as diagnostics()), centroid, and energy (membrane energy, node power F . V, the work
+  // of its membrane on the fluid since the run began; app/energy_budget.hpp).
+  [[nodiscard]] static std::vector<std::string> columns();
+  // The rows of every capsule, one after another. Throws std::runtime_error (naming the step)
+  // for an inverted element at the current positions.
+  [[nodiscard]] std::vector<double> rows(long step, double t) const;
   // membrane_NNNNNN.vtu (one per capsule: _<i> from the second on), parts 1.. of the series.
   void snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries& series) const;
   void write_final(const std::filesystem::path& dir) const;  // membrane_final.csv

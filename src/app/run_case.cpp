@@ -10,10 +10,15 @@
 #include <cstdint>
 #include <fstream>
 #include <limits>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "app/capsule_set.hpp"
+#include "app/energy_budget.hpp"
 #include "app/interrupt.hpp"
 #include "app/memory_estimate.hpp"
 #include "app/output_dir.hpp"
@@ -95,6 +100,7 @@ class FlowRun {
         capsules_ = std::make_unique<CapsuleSet>(c, ns_);
         adaptation_.set_bodies(&capsules_->coupling());
       }
+    budget_.emplace(ns_, capsules_ ? &capsules_->coupling() : nullptr);
   }
 
   void run() {
@@ -110,6 +116,7 @@ class FlowRun {
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);
+      budget_->restore(state.extras);
       // The faces (absent from older checkpoints and ones written before any step).
       if (comm_.size() == 1) {
         bool current = true;
@@ -127,22 +134,27 @@ class FlowRun {
     } else {
       if (comm_.size() > 1) distribute_coarse_start();
       (void)adaptation_.refine_initial();
+      budget_->start();
     }
     // A restart on N ranks: every rank has read the same forest; each keeps its part.
     if (comm_.size() > 1 && !forest_) forest_ = tree::distribute(comm_, tree_);
     // Diagnostics and the series are rank 0's.
-    std::optional<io::DiagnosticsCsv> diagnostics;
+    std::optional<io::DiagnosticsCsv> diagnostics, capsule_rows;
     std::optional<io::PvdSeries> series;
     on_root(comm_, [&] {
       fs::create_directories(out_);
       io::atomic_write_text(out_ / "case.toml", io::to_toml(c));
       auto columns = io::standard_diagnostics_columns();
       columns.emplace_back("mg_unconverged");  // solves that missed their tolerance since the last row
+      for (std::string& name : EnergyBudget<D>::columns()) columns.push_back(std::move(name));
       // A restart into a new folder, or over another run (--force), starts its own diagnostics and series.
       const bool in_place = continues_in_place(out_, request_.restart);
-      diagnostics = in_place && fs::exists(out_ / "diagnostics.csv")
-                        ? io::DiagnosticsCsv::resume(out_ / "diagnostics.csv", columns, double(step))
-                        : io::DiagnosticsCsv(out_ / "diagnostics.csv", columns);
+      const auto table = [&](const char* name, std::vector<std::string> header) {
+        return in_place && fs::exists(out_ / name) ? io::DiagnosticsCsv::resume(out_ / name, std::move(header), double(step))
+                                                   : io::DiagnosticsCsv(out_ / name, std::move(header));
+      };
+      diagnostics = table("diagnostics.csv", columns);
+      if (capsules_) capsule_rows = table("capsules.csv", CapsuleSet::columns());
       series = in_place && fs::exists(out_ / "series.pvd") ? io::PvdSeries::load(out_ / "series.pvd")
                                                             : io::PvdSeries(out_ / "series.pvd");
       if (request_.restart) series->truncate_after(ns_.time());
@@ -170,7 +182,8 @@ class FlowRun {
       }
       ++step;
       check_convergence(st, step);
-      (void)adaptation_.after_step(step);  // the stage after the flow (and membrane) step
+      budget_->after_step(st.dt);  // before the adaptation changes the grid
+      if (adaptation_.after_step(step)) budget_->after_adaptation();  // the stage after the flow (and membrane) step
       const double vmax = max_speed();
       if (!std::isfinite(vmax))
         throw RunFailure(fmt::format(
@@ -181,11 +194,23 @@ class FlowRun {
       if (step % c.output.diagnostics_interval == 0 || last) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics() : CapsuleDiagnostics{nan, nan, nan, nan};
+        const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics(0) : CapsuleDiagnostics{nan, nan, nan, nan};
         const double leaves = double(tree_.global_leaves()), depth = double(tree_.global_depth());
+        std::vector<double> energy, per_capsule;
+        try {  // the membrane energy at the new positions: an element inverted there is a blow-up
+          energy = budget_->row();
+          if (capsules_) per_capsule = capsules_->rows(step, ns_.time());
+        } catch (const std::runtime_error& e) {
+          throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
+        }
         on_root(comm_, [&] {
-          diagnostics->row({double(step), ns_.time(), st.dt, leaves, depth, m.d12, m.d12_bbox, m.area_rel,
-                            m.volume_rel, vmax, double(st.cycles()), wall, double(unconverged_since_row_)});
+          std::vector<double> row{double(step), ns_.time(), st.dt, leaves, depth, m.d12, m.d12_bbox, m.area_rel,
+                                  m.volume_rel, vmax, double(st.cycles()), wall, double(unconverged_since_row_)};
+          row.insert(row.end(), energy.begin(), energy.end());
+          diagnostics->row(row);
+          const std::size_t width = CapsuleSet::columns().size();
+          for (std::size_t k = 0; k < per_capsule.size(); k += width)
+            capsule_rows->row(std::span<const double>(per_capsule).subspan(k, width));
         });
         unconverged_since_row_ = 0;
       }
@@ -270,6 +295,7 @@ class FlowRun {
     const fs::path file = out_ / numbered("checkpoint", step, "h5");
     with_whole_tree([&](const tree::Tree<D>& t) {
       std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
+      for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
       // The faces the next step starts from, where it reads them (midpoint nodes,
       // carry_faces): without them a restarted run starts from the face mean of the cell
       // velocity and departs from the uninterrupted one. On N ranks they are not gathered:
@@ -350,6 +376,7 @@ class FlowRun {
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
+  std::optional<EnergyBudget<D>> budget_;  // the energy columns of diagnostics.csv
   ProgressLine progress_;
   long unconverged_since_row_ = 0;  // the next diagnostics row's mg_unconverged
   bool warned_unconverged_ = false;

@@ -29,6 +29,7 @@
 
 #include "fluid/faces.hpp"
 #include "fluid/flow_boundary.hpp"
+#include "fluid/flow_properties.hpp"
 #include "fluid/multigrid/multigrid.hpp"
 #include "tree/tree.hpp"
 
@@ -147,6 +148,18 @@ class NavierStokes {
   // The leaves' densities of this step (for a gravity force rho_f g, with the solver's
   // rho_f = the mean of the two cells).
   std::span<const double> density() const { return tree_.values(rho_field_); }
+  // rho of leaf c and mu on the fine face (lo, hi) along d, as the last step used them:
+  // the constants, or the cell field and its face mean (fluid/energy.hpp).
+  double cell_density(Index c) const { return properties_ ? tree_.values(rho_field_)[c] : options_.density; }
+  double face_viscosity(int d, Index lo, Index hi, const tree::Level<D>& lv) const {
+    return properties_ ? face_coefficient<D>(lv, mu_faces_, d, lo, hi) : mu_;
+  }
+  // With set_properties: the viscosity field and its face means (2D per cell slot).
+  tree::FieldId viscosity_field() const { return mu_field_; }
+  const std::vector<double>& face_viscosities() const { return mu_faces_; }
+  // The body force of the last step on faces, as the acceleration stage applied it (zero on
+  // the faces of sides with a prescribed normal velocity, which carry the force).
+  const FaceField<D>& face_force() const { return force_; }
 
   StepStats step();
   // Adapts the tree (velocity wavelets at `tolerance`, plus the options' forced levels),

@@ -101,6 +101,21 @@ double CapsuleCoupling::stability_limit() const {
   return std::min(kInertialLimit * std::sqrt(o.density * dx * dx * dx / g), kViscousLimit * mu * dx / g);
 }
 
+double CapsuleCoupling::membrane_energy(int k) const {
+  const Capsule& c = capsules_.at(static_cast<std::size_t>(k));
+  try {
+    return c.model.energy(c.x);
+  } catch (const membrane::ElementError& e) {
+    fail(static_cast<int>(steps_), fmt::format("capsule {}: element {} is inverted or collapsed ({})", k, e.element(), e.what()));
+  }
+}
+
+double CapsuleCoupling::node_power(int k) const {
+  const Capsule& c = capsules_.at(static_cast<std::size_t>(k));
+  if (c.forces.cols() != c.x.cols() || c.velocity.cols() != c.x.cols()) return 0.0;
+  return c.forces.cwiseProduct(c.velocity).sum();
+}
+
 void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) const {
   const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
   if (!unstable) throw std::runtime_error(where);
@@ -230,7 +245,11 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
                                  "xyz"[d], xn, lo, hi));
       }
   }
-  for (int k = 0; k < num_capsules(); ++k) capsules_[k].x += dt * motion_[k];
+  for (int k = 0; k < num_capsules(); ++k) {
+    Capsule& c = capsules_[k];
+    c.x += dt * motion_[k];
+    c.work += dt * c.forces.cwiseProduct(motion_[k]).sum();
+  }
   times_.interpolation += seconds_since(t0);
 }
 

@@ -79,7 +79,12 @@ struct Capsule {
   Eigen::Matrix3Xd x_mid;              // midpoint scheme: X*, where forces and velocities are taken
   Eigen::Matrix3Xd start_velocity;     // midpoint scheme: J(X*) u^n
   Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (may_wait)
-  double energy = 0.0;        // E(X(t)) of the last step
+  double energy = 0.0;        // E at the positions the last step took the forces at
+  // The work the membrane forces did on the fluid since the run began: the sum over the
+  // steps of dt F . (X(t + dt) - X(t)) / dt, with F the step's forces (Euler: at X(t); the
+  // midpoint scheme: at X*). E(X(0)) - E(X(t)) - work is the node update's own energy
+  // error: O(dt) for Euler, O(dt^2) for the midpoint scheme (issue 32).
+  double work = 0.0;
   MembraneTags tags;
 };
 
@@ -134,6 +139,14 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   void adapted() override;  // remembers the positions and restarts the count of steps
 
   [[nodiscard]] int num_capsules() const { return static_cast<int>(capsules_.size()); }
+  // E(X) of capsule k at its current positions. An element inverted there is a run failure
+  // (std::runtime_error naming the step, as a blow-up in a step).
+  [[nodiscard]] double membrane_energy(int k) const;
+  // sum over the nodes of F . V for capsule k, the last step's forces and interpolated
+  // velocities (0 before the first step): the power its membrane put into the fluid. With
+  // the same kernel for both stages on faces it equals the spread force's power against the
+  // face velocity, sum_faces f uf dx^3 (spreading is then the adjoint of interpolation).
+  [[nodiscard]] double node_power(int k) const;
   [[nodiscard]] const Capsule& capsule(int i) const { return capsules_.at(i); }
   [[nodiscard]] Capsule& capsule(int i) { return capsules_.at(i); }
   [[nodiscard]] std::int64_t steps() const { return steps_; }
