@@ -39,11 +39,12 @@ class EnergyBudget {
   // A restarted run: the reference values and integrals from the checkpoint (a checkpoint
   // written before the budget existed starts it anew here). Collective.
   void restore(const std::vector<io::ExtraArray>& extras);
-  // After each flow step of length dt, before the adaptation. Collective.
-  void after_step(double dt);
+  // After each flow step of length dt, before the adaptation; `row`: a diagnostics row
+  // follows (P_spread is measured for it only). Collective.
+  void after_step(double dt, bool row);
   // After an adaptation changed the grid: the kinetic energy its transfer of the velocity
   // added or removed (restriction averages, so coarsening removes some) goes to
-  // W_adaptation, and the next step's integrals start from the new grid's values. Collective.
+  // W_adaptation. Collective.
   void after_adaptation();
 
   [[nodiscard]] static std::vector<std::string> columns();
@@ -55,7 +56,7 @@ class EnergyBudget {
   [[nodiscard]] double membrane_energy() const;
   [[nodiscard]] double membrane_work() const;
   [[nodiscard]] double node_power() const;
-  void measure();  // flow_ and spread_power_ of the current state
+  void measure(bool spread);  // flow_, and spread_power_ if `spread`, of the current state
 
   fluid::NavierStokes<D>& ns_;
   const ibm::CapsuleCoupling* coupling_;

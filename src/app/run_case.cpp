@@ -182,7 +182,9 @@ class FlowRun {
       }
       ++step;
       check_convergence(st, step);
-      budget_->after_step(st.dt);  // before the adaptation changes the grid
+      const bool last = ns_.time() >= t_end * (1 - 1e-12);
+      const bool row = step % c.output.diagnostics_interval == 0 || last;
+      budget_->after_step(st.dt, row);  // before the adaptation changes the grid
       if (adaptation_.after_step(step)) budget_->after_adaptation();  // the stage after the flow (and membrane) step
       const double vmax = max_speed();
       if (!std::isfinite(vmax))
@@ -190,8 +192,7 @@ class FlowRun {
             "step {}, t = {:.6g}: the velocity is not finite. Likely cause: dt = {:.3g} above the stability "
             "limit (advection needs dt < h / |u|; set time.cfl, e.g. 0.5). Output up to the last snapshot is kept in {}",
             step, ns_.time(), st.dt, out_.string()));
-      const bool last = ns_.time() >= t_end * (1 - 1e-12);
-      if (step % c.output.diagnostics_interval == 0 || last) {
+      if (row) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics(0) : CapsuleDiagnostics{nan, nan, nan, nan};
@@ -204,10 +205,10 @@ class FlowRun {
           throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
         }
         on_root(comm_, [&] {
-          std::vector<double> row{double(step), ns_.time(), st.dt, leaves, depth, m.d12, m.d12_bbox, m.area_rel,
-                                  m.volume_rel, vmax, double(st.cycles()), wall, double(unconverged_since_row_)};
-          row.insert(row.end(), energy.begin(), energy.end());
-          diagnostics->row(row);
+          std::vector<double> values{double(step), ns_.time(), st.dt, leaves, depth, m.d12, m.d12_bbox, m.area_rel,
+                                     m.volume_rel, vmax, double(st.cycles()), wall, double(unconverged_since_row_)};
+          values.insert(values.end(), energy.begin(), energy.end());
+          diagnostics->row(values);
           const std::size_t width = CapsuleSet::columns().size();
           for (std::size_t k = 0; k < per_capsule.size(); k += width)
             capsule_rows->row(std::span<const double>(per_capsule).subspan(k, width));

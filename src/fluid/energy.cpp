@@ -19,25 +19,35 @@ double volume_of(double h) {
 }
 
 // N sums over the fine faces, each face once: f(d, lo, hi, h, level) returns the N terms of
-// one face (faces.hpp's visit), on the rank that owns the leaf computing that face.
-template <int D, int N, class F>
-std::array<double, N> face_sums(const tree::Tree<D>& t, F&& f) {
+// one face (faces.hpp's visit), on the rank that owns the leaf computing that face; the first
+// sum's terms of a leaf of size h are multiplied by first_scale(h).
+template <int D, int N, class F, class Scale>
+std::array<double, N> face_sums(const tree::Tree<D>& t, F&& f, Scale&& first_scale) {
   std::array<parallel::ExactSum, N> total;
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double h = t.cell_size(l);
     const Index base = lv.base, active_end = lv.active_end(), halo_begin = lv.halo_begin();
     const auto [begin, end] = t.owned_range(l);  // the whole level on one rank
+    const double scale = first_scale(h);
 #pragma omp parallel if (end - begin > tree::kParallelMin)
     {
       std::array<parallel::CompensatedSum, N> s;
+      std::array<double, N> leaf_sum{};
       auto add = [&](int d, Index lo, Index hi, double hh, const tree::Level<D>& level) {
         const std::array<double, N> terms = f(d, lo, hi, hh, level);
-        for (int k = 0; k < N; ++k) s[k].add(terms[k]);
+        for (int k = 0; k < N; ++k) leaf_sum[k] += terms[k];
       };
 #pragma omp for schedule(static) nowait
       for (Index i = begin; i < end; ++i)
-        if (lv.leaf[i] && t.owns(base + i)) detail::faces_of_leaf<D>(lv, base + i, h, active_end, halo_begin, add);
+        if (lv.leaf[i] && t.owns(base + i)) {
+          // A leaf's faces in a fixed order, then one compensated term per leaf: the sum does
+          // not depend on how the leaves are split over threads and ranks.
+          leaf_sum.fill(0.0);
+          detail::faces_of_leaf<D>(lv, base + i, h, active_end, halo_begin, add);
+          leaf_sum[0] *= scale;
+          for (int k = 0; k < N; ++k) s[k].add(leaf_sum[k]);
+        }
 #pragma omp critical(capsflow_face_sums)
       for (int k = 0; k < N; ++k) s[k].add_scaled_to(total[k], 1.0);
     }
@@ -48,6 +58,18 @@ std::array<double, N> face_sums(const tree::Tree<D>& t, F&& f) {
 }
 
 }  // namespace
+
+template <int D>
+double kinetic_energy(const NavierStokes<D>& ns) {
+  const tree::Tree<D>& t = ns.tree();
+  std::array<std::span<const double>, D> u;
+  for (int d = 0; d < D; ++d) u[d] = t.values(ns.velocity(d));
+  return detail::leaf_integral<D>(t, [&](Index c) {
+           double s = 0.0;
+           for (int d = 0; d < D; ++d) s += u[d][c] * u[d][c];
+           return 0.5 * ns.cell_density(c) * s;
+         }).first;
+}
 
 template <int D>
 FlowEnergy flow_energy(NavierStokes<D>& ns) {
@@ -66,15 +88,14 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   const FlowConditions<D>& conditions = ns.conditions();
 
   FlowEnergy e;
-  e.kinetic = detail::leaf_integral<D>(t, [&](Index c) {
-                double s = 0.0;
-                for (int d = 0; d < D; ++d) s += u[d][c] * u[d][c];
-                return 0.5 * ns.cell_density(c) * s;
-              }).first;
+  e.kinetic = kinetic_energy(ns);
+  // Per face: the dissipation without its factor mu h^(D-2) where mu is constant (the leaf's
+  // sum is scaled once: every face of a leaf has the leaf's h), and the boundary power.
+  const bool variable = ns.variable_properties();
+  const double mu_constant = variable ? 1.0 : ns.face_viscosity(0, 0, 0, t.level(0));
   const auto [dissipation, boundary] = face_sums<D, 2>(t, [&](int d, Index lo, Index hi, double h,
                                                               const tree::Level<D>& lv) -> std::array<double, 2> {
-    const double mu = ns.face_viscosity(d, lo, hi, lv);
-    const double volume = volume_of<D>(h);
+    const double mu = variable ? ns.face_viscosity(d, lo, hi, lv) : 1.0;
     const Index ghost = std::max(lo, hi);  // ghosts come last in a level
     if (ghost < lv.ghost_begin()) {
       double s = 0.0;
@@ -83,28 +104,28 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
       // from the coarse centre to the fine one, 1.5 h long: the dual cells then tile the
       // domain along d, and the sum stays second order on adaptive grids.
       const double dual = ghost >= lv.halo_begin() ? 1.5 : 1.0;
-      return {dual * mu * s * volume / (h * h), 0.0};
+      return {dual * mu * s, 0.0};
     }
     const Index c = ghost == hi ? lo : hi;
-    double gradient2 = 0.0, work = 0.0, speed2 = 0.0;
+    double jump2 = 0.0, work = 0.0, speed2 = 0.0;
     for (int k = 0; k < D; ++k) {
       const double at_face = 0.5 * (u[k][ghost] + u[k][c]);
-      const double dn = (u[k][ghost] - u[k][c]) / h;  // outward derivative
-      gradient2 += dn * dn;
-      work += at_face * dn;
+      const double jump = u[k][ghost] - u[k][c];  // h times the outward derivative
+      jump2 += jump * jump;
+      work += at_face * jump;
       speed2 += at_face * at_face;
     }
     // The pressure on the side from its condition (homogeneous: 0 where Dirichlet, the cell's
     // value where Neumann), not from the ghost, which the projection need not have refreshed.
     const int side = lv.ghost_side[static_cast<std::size_t>(ghost - lv.ghost_begin())];
     const double p_side = conditions.pressure.side[side].kind == tree::BcKind::dirichlet ? 0.0 : p[c];
-    const double area = volume / h;
+    const double area = volume_of<D>(h) / h;
     const double normal = projected ? uf[d][hi] : 0.5 * (u[d][ghost] + u[d][c]);
     const double un = ghost == hi ? normal : -normal;  // outward normal velocity
-    double power = mu * work * area - p_side * un * area;
+    double power = mu * mu_constant * work * area / h - p_side * un * area;
     if (advection) power -= 0.5 * ns.cell_density(c) * speed2 * un * area;
-    return {0.5 * mu * gradient2 * volume, power};
-  });
+    return {0.5 * mu * jump2, power};
+  }, [&](double h) { return mu_constant * volume_of<D>(h) / (h * h); });
   e.dissipation = dissipation;
   e.boundary_power = boundary;
   if (ns.variable_properties()) {  // the transpose stress's share: -sum u . T h^D
@@ -121,11 +142,15 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
 template <int D>
 double face_power(const tree::Tree<D>& t, const FaceField<D>& force, const FaceField<D>& uf) {
   CAPSFLOW_ASSERT(spans_cells<D>(force, t) && spans_cells<D>(uf, t), "face_power: a face field does not span the tree");
-  return face_sums<D, 1>(t, [&](int d, Index, Index hi, double h, const tree::Level<D>&) -> std::array<double, 1> {
-    return {force[d][hi] * uf[d][hi] * volume_of<D>(h)};
-  })[0];
+  return face_sums<D, 1>(
+      t, [&](int d, Index, Index hi, double, const tree::Level<D>&) -> std::array<double, 1> {
+        return {force[d][hi] * uf[d][hi]};
+      },
+      [](double h) { return volume_of<D>(h); })[0];
 }
 
+template double kinetic_energy<2>(const NavierStokes<2>&);
+template double kinetic_energy<3>(const NavierStokes<3>&);
 template FlowEnergy flow_energy<2>(NavierStokes<2>&);
 template FlowEnergy flow_energy<3>(NavierStokes<3>&);
 template double face_power<2>(const tree::Tree<2>&, const FaceField<2>&, const FaceField<2>&);

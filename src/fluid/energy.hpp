@@ -49,6 +49,10 @@ struct FlowEnergy {
 template <int D>
 [[nodiscard]] FlowEnergy flow_energy(NavierStokes<D>& ns);
 
+// K alone (no sync: the leaves' values). Collective on N ranks.
+template <int D>
+[[nodiscard]] double kinetic_energy(const NavierStokes<D>& ns);
+
 // sum over the fine faces of force_d uf_d h^D (both fields spanning the tree). Collective
 // on N ranks.
 template <int D>

@@ -94,6 +94,7 @@ class NavierStokes {
   NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options);
 
   tree::Tree<D>& tree() { return tree_; }
+  const tree::Tree<D>& tree() const { return tree_; }
   const FlowOptions<D>& options() const { return options_; }
   const FlowConditions<D>& conditions() const { return conditions_; }
   double time() const { return time_; }

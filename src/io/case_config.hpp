@@ -107,7 +107,7 @@ struct CapsuleConfig {
   std::array<double, 3> axes_factors{1.0, 1.0, 1.0};  // ellipsoid semi-axes / radius
   double inflation = 1.0;                   // inflated: initial radius / radius
   KernelType spread_kernel = KernelType::cosine;
-  KernelType interp_kernel = KernelType::hat;
+  KernelType interp_kernel = KernelType::cosine;
   bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
   // staggered only: the kernels' divergence-free forms (ibm::DivergenceFree), one cell wider
   bool divergence_free = true;

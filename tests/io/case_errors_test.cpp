@@ -280,8 +280,9 @@ TEST(io_case_errors, CapsuleWithinTheKernelsReachOfAWall) {
   EXPECT_THAT(error_of(replace(faces, "0.46", "0.45")), HasSubstr("within its kernels' reach (0.0625"));
   EXPECT_NO_THROW((void)parse_case_text(replace(capsule, "0.46", "0.45") + "staggered = false\n", "c"));
   // The hat kernel alone reaches one cell on faces, two in its divergence-free form.
-  EXPECT_NO_THROW((void)parse_case_text(faces + "spread_kernel = \"hat\"\n", "c"));
-  EXPECT_THAT(error_of(capsule + "spread_kernel = \"hat\"\n"), HasSubstr("within its kernels' reach (0.0625"));
+  const std::string hat = "spread_kernel = \"hat\"\ninterp_kernel = \"hat\"\n";
+  EXPECT_NO_THROW((void)parse_case_text(faces + hat, "c"));
+  EXPECT_THAT(error_of(capsule + hat), HasSubstr("within its kernels' reach (0.0625"));
   // Along a periodic direction there is no side to reach.
   EXPECT_NO_THROW((void)parse_case_text(std::string(kBase) + "[[capsule]]\nradius = 0.5\ncentre = [-3.5, 0, 0]\n", "c"));
 }

@@ -66,7 +66,7 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
   EXPECT_EQ(k2.law, MembraneLaw::skalak);
   EXPECT_EQ(k2.nodes, 2562);
   EXPECT_EQ(k2.spread_kernel, KernelType::cosine);
-  EXPECT_EQ(k2.interp_kernel, KernelType::hat);
+  EXPECT_EQ(k2.interp_kernel, KernelType::cosine);
 
   EXPECT_EQ(c.time.dt, 0.0005);
   EXPECT_EQ(c.time.t_end, 3.5);
