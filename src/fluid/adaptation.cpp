@@ -122,8 +122,13 @@ tree::AdaptCounts Adaptation<D>::adapt() {
 
 template <int D>
 bool Adaptation<D>::after_step(std::int64_t step) {
-  if (!due(step)) return false;
+  if (!options_.enabled) return false;
+  if (!due(step)) {
+    if (!bodies_ || !bodies_->must_adapt()) return false;
+    ++forced_;
+  }
   (void)adapt();
+  ++count_;
   return true;
 }
 

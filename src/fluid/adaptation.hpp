@@ -10,7 +10,9 @@
 // cell (one adapt refines a leaf by one level only), forced refinement passes follow.
 //
 // When: before the first step, forced refinement only (the velocity is not yet a guide)
-// until nothing changes; then after every step whose number is a multiple of `interval`.
+// until nothing changes; then after every step whose number is a multiple of `interval`,
+// and after any step that moved the bodies so far that the next one could leave their
+// region (BodyRefinement::must_adapt: a fast capsule is followed whatever the interval).
 // The step number is the run's, so a restarted run adapts after the same steps as the
 // uninterrupted one. With max_interval > interval and bodies, a due adaptation may wait
 // while the bodies say they barely moved (BodyRefinement::may_wait), up to max_interval
@@ -55,6 +57,9 @@ class BodyRefinement {
   // Whether an adaptation due now may wait (the bodies moved so little since the last one
   // that their region still covers them until max_interval steps after it).
   virtual bool may_wait(int max_interval) const = 0;
+  // Whether the bodies moved so far since the last adaptation that the next step could need
+  // cells outside their region: an adaptation then happens now, whatever the interval.
+  virtual bool must_adapt() const = 0;
   // After an adaptation.
   virtual void adapted() = 0;
 };
@@ -86,6 +91,9 @@ class Adaptation {
   [[nodiscard]] int required_level(const tree::Box<D>& b) const;
   [[nodiscard]] const AdaptationOptions& options() const { return options_; }
   [[nodiscard]] double seconds() const { return seconds_; }  // wall-clock time spent adapting
+  // Adaptations so far, and how many of them the bodies' motion forced before their interval.
+  [[nodiscard]] std::int64_t count() const { return count_; }
+  [[nodiscard]] std::int64_t forced_by_bodies() const { return forced_; }
   [[nodiscard]] const tree::AdaptCounts& last() const { return last_; }
 
  private:
@@ -97,6 +105,7 @@ class Adaptation {
   AdaptationOptions options_;
   BodyRefinement<D>* bodies_ = nullptr;
   double seconds_ = 0.0;
+  std::int64_t count_ = 0, forced_ = 0;
   tree::AdaptCounts last_{};
 };
 

@@ -116,14 +116,45 @@ double CapsuleCoupling::node_power(int k) const {
   return c.forces.cwiseProduct(c.velocity).sum();
 }
 
-void CapsuleCoupling::fail(int step, const std::string& what, bool unstable) const {
+void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const {
   const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
-  if (!unstable) throw std::runtime_error(where);
-  throw std::runtime_error(fmt::format(
-      "{}. Likely cause: dt = {:.3g} above the membrane stability limit of the explicit coupling, measured "
-      "{:.3g} here (min(0.53 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs); time.cfl > 0 chooses dt below it), or a "
-      "capsule pressed against a wall",
-      where, last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, stability_limit()));
+  const double dt = last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, limit = stability_limit();
+  const bool above = dt > limit;
+  const std::string unstable = fmt::format(
+      "dt = {:.3g} above the membrane stability limit of the explicit coupling, measured {:.3g} here "
+      "(min(0.53 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs)): lower time.dt, or set time.cfl > 0 to keep dt below it",
+      dt, limit);
+  const std::string stable = fmt::format("dt = {:.3g} is below the measured stability limit {:.3g}", dt, limit);
+  std::string likely;
+  switch (cause) {
+    case Cause::instability:
+      likely = above ? unstable : stable + ", so a capsule pressed against a wall or folded by the flow is likelier";
+      break;
+    case Cause::band:
+      likely = above ? unstable + " (unstable nodes jump out of the band first)"
+                     : stable + ", so the membrane moved further than the band's margin since the last adaptation: "
+                                "widen adapt.membrane_band or adapt more often (adapt.interval, adapt.interval_time)";
+      break;
+    case Cause::wall:
+      likely = above ? unstable
+                     : stable + ", so the membrane touches the wall: contact forces are not modelled yet (start the "
+                                "capsule further from the walls, or refine so that the kernels reach less far)";
+      break;
+  }
+  throw std::runtime_error(fmt::format("{}. Likely cause: {}.", where, likely));
+}
+
+void CapsuleCoupling::fail_stencil(int step, int k, const StencilError& e) const {
+  const StencilError::Where& w = e.where();
+  const std::string node = fmt::format("capsule {}: node {} at ({:.6g}, {:.6g}, {:.6g})", k, w.node, w.x[0], w.x[1], w.x[2]);
+  if (e.missing() == StencilError::Missing::outside_domain)
+    fail(step, fmt::format("{} came within the immersed-boundary kernel's reach of side {}", node,
+                           fluid::side_name(w.side)),
+         Cause::wall);
+  fail(step,
+       fmt::format("{} is outside the band refined to level {} around the membrane (the grid there is {})", node,
+                   w.level, w.found_level >= 0 ? fmt::format("of level {}", w.found_level) : std::string("coarser")),
+       Cause::band);
 }
 
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
@@ -157,6 +188,18 @@ bool CapsuleCoupling::may_wait(int max_interval) const {
   // the last adaptation the nodes must stay within half of that until the forced one.
   const double projected = moved * static_cast<double>(max_interval) / static_cast<double>(since_adapt_);
   return !(projected > 0.5 * margin_ * ns_.tree().cell_size(ns_.tree().max_level()));
+}
+
+bool CapsuleCoupling::must_adapt() const {
+  const double reach = margin_ * ns_.tree().cell_size(ns_.tree().max_level());
+  for (const Capsule& c : capsules_) {
+    if (c.x_at_adapt.cols() != c.x.cols()) continue;
+    // Per axis: the band is the union of the stencils' boxes, `margin` cells wider.
+    double moved = (c.x - c.x_at_adapt).cwiseAbs().maxCoeff();
+    if (c.velocity.cols() == c.x.cols()) moved += last_dt_ * c.velocity.cwiseAbs().maxCoeff();
+    if (moved > reach) return true;
+  }
+  return false;
 }
 
 void CapsuleCoupling::adapted() {
@@ -193,7 +236,7 @@ void CapsuleCoupling::spread_forces(int step) {
       if (c.kernels.staggered) spread_faces(c.kernels.spread, c.kernels.divergence_free, t, at, c.forces, face_force_, workspace_, mode);
       else spread(c.kernels.spread, t, at, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
-      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+      fail_stencil(step, k, e);
     }
     started = true;
   }
@@ -220,7 +263,7 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
       if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, c.velocity);
       else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
     } catch (const StencilError& e) {
-      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+      fail_stencil(step, k, e);
     }
     Eigen::Index bad = 0;
     if (!all_finite(c.velocity, bad))
@@ -242,7 +285,8 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
         const double lo = o.origin[d], hi = lo + o.roots[d] * o.root_size;
         if (!o.periodic[d] && !(xn > lo && xn < hi))
           fail(step, fmt::format("capsule {}: node {} would leave the domain: {} = {:.6g} outside [{}, {}]", k, i,
-                                 "xyz"[d], xn, lo, hi));
+                                 "xyz"[d], xn, lo, hi),
+               Cause::wall);
       }
   }
   for (int k = 0; k < num_capsules(); ++k) {
@@ -278,7 +322,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
       if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, *faces, c.x_mid, c.start_velocity);
       else interpolate(c.kernels.interpolate, t, u, c.x_mid, c.start_velocity);
     } catch (const StencilError& e) {
-      fail(step, fmt::format("capsule {}: {}", k, e.what()), false);
+      fail_stencil(step, k, e);
     }
   }
   times_.interpolation += seconds_since(t0);

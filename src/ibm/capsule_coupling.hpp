@@ -49,6 +49,7 @@
 #include "ibm/kernels.hpp"
 #include "ibm/refinement_tags.hpp"
 #include "ibm/spread.hpp"
+#include "ibm/stencil.hpp"
 #include "membrane/forces.hpp"
 
 namespace capsflow::ibm {
@@ -140,6 +141,10 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // at their mean speed since then, would move less than half the margin by then (a slowly
   // relaxing capsule needs no new band every few steps).
   [[nodiscard]] bool may_wait(int max_interval) const override;
+  // Whether a node has moved, since the last adaptation, within one step's motion (at its
+  // last velocity) of the band's margin: the next step takes its stencils at X (and the
+  // midpoint scheme at X + dt/2 V), which must stay in the band.
+  [[nodiscard]] bool must_adapt() const override;
   void adapted() override;  // remembers the positions and restarts the count of steps
 
   [[nodiscard]] int num_capsules() const { return static_cast<int>(capsules_.size()); }
@@ -196,9 +201,14 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   [[nodiscard]] const Eigen::Matrix3Xd& stage_positions(const Capsule& c) const {
     return scheme_ == NodeScheme::midpoint ? c.x_mid : c.x;
   }
-  // Throws std::runtime_error naming the step and time; `unstable` adds the likely cause
-  // of a blow-up (stencil errors carry their own).
-  [[noreturn]] void fail(int step, const std::string& what, bool unstable = true) const;
+  // What a failure's message names as its likely cause: the explicit coupling's instability
+  // (when dt is above the measured limit; else a wall or a fold), a node out of the refined
+  // band (instability, or a band that did not follow the membrane), or a wall.
+  enum class Cause : unsigned char { instability, band, wall };
+  // Throws std::runtime_error naming the step, the time, `what` and the likely cause with the
+  // keys that change it: one message a user can act on, with no internal name in it.
+  [[noreturn]] void fail(int step, const std::string& what, Cause cause = Cause::instability) const;
+  [[noreturn]] void fail_stencil(int step, int k, const StencilError& e) const;
 
   fluid::NavierStokes<3>& ns_;
   int margin_;

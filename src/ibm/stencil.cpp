@@ -127,22 +127,26 @@ void require_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first
 void throw_missing_cell(const tree::Tree<3>& t, int level, const tree::Coords<3>& ijk, std::int64_t node,
                         const double* x, std::string_view operation, std::string_view kernel) {
   const auto& o = t.options();
+  StencilError::Where at{.node = node, .x = {x[0], x[1], x[2]}, .level = level};
   const std::string where =
       fmt::format("ibm: {} with the {} kernel: node {} at ({:.6g}, {:.6g}, {:.6g}) needs cell ({}, {}, {}) of level {}",
                   operation, kernel, node, x[0], x[1], x[2], ijk[0], ijk[1], ijk[2], level);
   for (int d = 0; d < 3; ++d) {
     const std::int64_t n = static_cast<std::int64_t>(o.roots[d]) << level;
-    if (!o.periodic[d] && (ijk[d] < 0 || ijk[d] >= n))
+    if (!o.periodic[d] && (ijk[d] < 0 || ijk[d] >= n)) {
+      at.side = 2 * d + (ijk[d] < 0 ? 0 : 1);
       throw StencilError(
           fmt::format("{}, which lies outside the domain across side {}_{}: the membrane is within the kernel's "
                       "reach of that boundary (dx = {:.4g})",
                       where, "xyz"[d], ijk[d] < 0 ? "lo" : "hi", t.cell_size(level)),
-          node);
+          StencilError::Missing::outside_domain, at);
+    }
   }
   std::string found = "the tree is not refined there";
   if (level <= t.depth()) {
     const Index c = t.find(level, ijk);
     if (c != tree::kNone && c >= t.level(level).halo_begin()) {
+      at.found_level = level - 1;
       found = fmt::format("only a halo cell exists there (the leaf is of level {})", level - 1);
     } else if (c == tree::kNone) {
       tree::Coords<3> wrapped = ijk;
@@ -151,13 +155,14 @@ void throw_missing_cell(const tree::Tree<3>& t, int level, const tree::Coords<3>
         wrapped[d] = ((wrapped[d] % n) + n) % n;
       }
       const Index leaf = t.locate(t.center_at(level, wrapped));
-      found = fmt::format("the leaf there is of level {}", t.level_of(leaf));
+      at.found_level = t.level_of(leaf);
+      found = fmt::format("the leaf there is of level {}", at.found_level);
     }
   }
   throw StencilError(fmt::format("{} as an active leaf, but {}: refine to level {} around the membrane first "
-                                 "(ibm::MembraneTags as the adapt's required level)",
+                                 "(the membrane's refinement band, as the adaptation's required level)",
                                  where, found, level),
-                     node);
+                     StencilError::Missing::not_refined, at);
 }
 
 }  // namespace capsflow::ibm

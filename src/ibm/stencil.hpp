@@ -154,13 +154,29 @@ bool patch_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<
 }
 
 // Thrown when a stencil cell is missing; names the node, its position, the cell and why.
+// The fields let a caller say it in its own words (the coupled step names the likely cause).
 class StencilError : public std::runtime_error {
  public:
-  StencilError(const std::string& message, std::int64_t node) : std::runtime_error(message), node_(node) {}
-  [[nodiscard]] std::int64_t node() const noexcept { return node_; }
+  enum class Missing : unsigned char {
+    outside_domain,  // the cell lies across a non-periodic side: the node is within the kernel's reach of it
+    not_refined,     // the tree is coarser there than the stencil's level
+  };
+  struct Where {
+    std::int64_t node = 0;
+    std::array<double, 3> x{};  // the node's position
+    int level = 0;              // the stencil's level (the max level)
+    int found_level = -1;       // not_refined: the level of the leaf there (-1: unknown)
+    int side = -1;              // outside_domain: the side crossed (2d or 2d + 1)
+  };
+  StencilError(const std::string& message, Missing missing, Where where)
+      : std::runtime_error(message), missing_(missing), where_(where) {}
+  [[nodiscard]] std::int64_t node() const noexcept { return where_.node; }
+  [[nodiscard]] Missing missing() const noexcept { return missing_; }
+  [[nodiscard]] const Where& where() const noexcept { return where_; }
 
  private:
-  std::int64_t node_;
+  Missing missing_;
+  Where where_;
 };
 
 // Builds the StencilError for node `node` at x whose cell `ijk` of `level` is missing:

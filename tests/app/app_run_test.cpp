@@ -279,6 +279,36 @@ TEST(AppCapsule, RelaxationWritesMembraneOutputAndRestartsExactly) {
   expect_restart_repeats_run(dir, base, "checkpoint_000005.h5", full);
 }
 
+// Issue 31: a fixed dt above the explicit coupling's measured stability limit is named
+// before the first step, with the limit and the keys, as one line on stderr; at a restart
+// too; a dt below it says nothing.
+TEST(AppCapsule, TimeStepAboveTheStabilityLimitIsNamedBeforeTheFirstStep) {
+  const fs::path dir = scratch("above_limit");
+  // dx = 1/8, Ca = 0.05, Re = 1: the limit is min(0.53 sqrt(Ca Re dx^3), 0.42 Ca dx) = 2.62e-3.
+  const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                           "--set time.t_end=0.02 --set output.vtu=false --set output.checkpoint=true "
+                           "--set output.checkpoint_interval=2 ";
+  const auto above = capsflow(base + "--set time.dt=0.005 --out " + (dir / "above").string(), dir);
+  ASSERT_EQ(above.status, 0) << above.err;
+  EXPECT_EQ(lines(above.err), 1) << above.err;
+  EXPECT_THAT(above.err, ::testing::StartsWith("warning: time.dt = 0.005 is 1.9 times the explicit coupling's stability "
+                                               "limit measured for this grid and membrane, 0.00262"));
+  EXPECT_THAT(above.err, ::testing::HasSubstr("lower time.dt or set time.cfl > 0"));
+  const auto restart = capsflow(base + "--set time.dt=0.005 --out " + (dir / "above").string() + " --restart " +
+                                    (dir / "above" / "checkpoint_000002.h5").string(),
+                                dir);
+  ASSERT_EQ(restart.status, 0) << restart.err;
+  EXPECT_THAT(restart.err, ::testing::StartsWith("warning: time.dt = 0.005 is 1.9 times")) << "at a restart too";
+  const auto below = capsflow(base + "--set time.dt=0.002 --out " + (dir / "below").string(), dir);
+  ASSERT_EQ(below.status, 0) << below.err;
+  EXPECT_EQ(below.err, "");
+  // With the solver's choice (time.cfl > 0) dt stays below the limit: nothing to say.
+  const auto chosen = capsflow(base + "--set time.cfl=0.5 --out " + (dir / "cfl").string(), dir);
+  ASSERT_EQ(chosen.status, 0) << chosen.err;
+  EXPECT_EQ(chosen.err, "");
+}
+
 // A checkpoint at a step that is not a multiple of adapt.interval (here 4, interval 3):
 // the full run adapts after steps 3, 6 and 9; the restart from step 4 must adapt after 6
 // and 9 too (not 3 steps after the restart), or the membrane ends elsewhere.
