@@ -5,12 +5,14 @@ where the membrane's elastic energy goes, and how well the balance closes.
 usage: plot_energy.py RUN_DIR [RUN_DIR ...]   (one set of curves per run; the plot goes to the first)
 Reads RUN_DIR/diagnostics.csv, writes RUN_DIR/energy.png and prints the budget at a few times.
 
-Left: the energy released by the membranes, E_membrane(0) - E_membrane(t), against where it
-went: kinetic energy gained, viscous dissipation W_dissipation, what the adaptations removed,
-and the work of the sides (subtracted: energy that came in). Right: the powers: P_nodes (the
-membranes' forces against their nodes' velocities), P_spread (the spread forces against the
-face velocity; equal to P_nodes when the kernels are adjoint), the dissipation and the sides'
-work rate. The energy residual is the balance's error (docs/numerics.md, "Energy budget").
+Left: the membranes' elastic energy and the fluid's kinetic energy. Middle: what the two lost
+since t = 0, E_membrane(0) + E_kinetic(0) - E_membrane - E_kinetic, against where it went:
+viscous dissipation W_dissipation, what the adaptations removed, minus the work of the sides
+(energy that came in), and the residual, the balance's error (docs/numerics.md, "Energy
+budget"). Right: the powers: P_nodes (the membranes' forces against their nodes'
+velocities), P_spread (the spread forces against the face velocity; equal to P_nodes when
+the kernels are adjoint), the dissipation and the sides' work rate. The shares printed are
+of E_membrane(0) + E_kinetic(0).
 """
 import os
 import sys
@@ -36,7 +38,7 @@ def read(run):
 
 
 def start_values(d):
-    """E_membrane(0) + E_kinetic(0), from the residual's definition at the first row."""
+    """E_membrane(0) + E_kinetic(0), from the residual's definition at any row."""
     return (d["energy_residual"][0] + d["E_membrane"][0] + d["E_kinetic"][0] + d["W_dissipation"][0]
             + d["W_adaptation"][0] - d["W_boundary"][0])
 
@@ -45,36 +47,39 @@ def main():
     runs = sys.argv[1:]
     if not runs:
         sys.exit(__doc__)
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
     for run in runs:
         d = read(run)
         label = os.path.basename(os.path.normpath(run))
         total0 = start_values(d)
-        released = total0 - d["E_membrane"]  # with E_kinetic(0) counted in (0 from rest)
-        ax[0].plot(d["t"], released, "k-", label=f"{label}: released by the membranes")
-        ax[0].plot(d["t"], d["W_dissipation"], "-", label=f"{label}: dissipated")
-        ax[0].plot(d["t"], d["E_kinetic"], "-", label=f"{label}: kinetic energy")
+        lost = total0 - d["E_membrane"] - d["E_kinetic"]  # by the membranes and the fluid since t = 0
+        ax[0].plot(d["t"], d["E_membrane"], "-", label=f"{label}: E_membrane")
+        ax[0].plot(d["t"], d["E_kinetic"], "-", label=f"{label}: E_kinetic")
+        ax[1].plot(d["t"], lost, "k-", label=f"{label}: lost by membranes and fluid")
+        ax[1].plot(d["t"], d["W_dissipation"], "-", label=f"{label}: dissipated")
         if np.any(d["W_adaptation"] != 0):
-            ax[0].plot(d["t"], d["W_adaptation"], ":", label=f"{label}: removed by adaptations")
+            ax[1].plot(d["t"], d["W_adaptation"], ":", label=f"{label}: removed by adaptations")
         if np.any(d["W_boundary"] != 0):
-            ax[0].plot(d["t"], -d["W_boundary"], "-.", label=f"{label}: minus the sides' work")
-        ax[0].plot(d["t"], d["energy_residual"], "r--", label=f"{label}: residual (the scheme's error)")
-        ax[1].plot(d["t"], d["P_nodes"], "-", label=f"{label}: P_nodes = F.V")
-        ax[1].plot(d["t"], d["P_spread"], "--", label=f"{label}: P_spread = f.uf")
-        ax[1].plot(d["t"], d["dissipation"], "-", label=f"{label}: dissipation")
+            ax[1].plot(d["t"], -d["W_boundary"], "-.", label=f"{label}: minus the sides' work")
+        ax[1].plot(d["t"], d["energy_residual"], "r--", label=f"{label}: residual (the scheme's error)")
+        ax[2].plot(d["t"], d["P_nodes"], "-", label=f"{label}: P_nodes = F.V")
+        ax[2].plot(d["t"], d["P_spread"], "--", label=f"{label}: P_spread = f.uf")
+        ax[2].plot(d["t"], d["dissipation"], "-", label=f"{label}: dissipation")
         if np.any(d["P_boundary"] != 0):
-            ax[1].plot(d["t"], d["P_boundary"], "-.", label=f"{label}: sides' work rate")
+            ax[2].plot(d["t"], d["P_boundary"], "-.", label=f"{label}: sides' work rate")
+        print(f"{label}: E_membrane(0) + E_kinetic(0) = {total0:.6g}; shares of it below")
         for t in (0.01, 0.05, 0.1, 0.5, 1.0, 5.0, 10.0):
             if d["t"][-1] >= t - 1e-9 and d["t"][0] <= t + 1e-9:
                 i = int(np.argmin(np.abs(d["t"] - t)))
-                rel = released[i]
-                share = (lambda x: 100 * x / rel) if rel != 0 else (lambda x: float("nan"))
-                print(f"{label}: t = {d['t'][i]:.3f}  released {rel:.5g}: dissipated {share(d['W_dissipation'][i]):.2f}%, "
-                      f"kinetic {share(d['E_kinetic'][i]):.2f}%, adaptations {share(d['W_adaptation'][i]):.3f}%, "
-                      f"sides {share(-d['W_boundary'][i]):.3f}%, residual {share(d['energy_residual'][i]):+.3f}%")
-    ax[0].set(xlabel="t", ylabel="energy", title="energy budget")
-    ax[1].set(xlabel="t", ylabel="power", title="powers")
-    ax[1].set_yscale("symlog", linthresh=1e-3 * max(1e-300, float(np.nanmax(np.abs(read(runs[0])["dissipation"])))))
+                share = (lambda x: 100 * x / total0) if total0 != 0 else (lambda x: float("nan"))
+                print(f"{label}: t = {d['t'][i]:.3f}  membrane {share(d['E_membrane'][i]):.2f}%, kinetic "
+                      f"{share(d['E_kinetic'][i]):.2f}%, dissipated {share(d['W_dissipation'][i]):.2f}%, "
+                      f"sides' work {share(d['W_boundary'][i]):+.3f}%, adaptations {share(d['W_adaptation'][i]):+.3f}%, "
+                      f"residual {share(d['energy_residual'][i]):+.3f}%")
+    ax[0].set(xlabel="t", ylabel="energy", title="energies")
+    ax[1].set(xlabel="t", ylabel="energy", title="where it went")
+    ax[2].set(xlabel="t", ylabel="power", title="powers")
+    ax[2].set_yscale("symlog", linthresh=1e-3 * max(1e-300, float(np.nanmax(np.abs(read(runs[0])["dissipation"])))))
     for a in ax:
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
