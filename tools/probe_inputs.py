@@ -39,7 +39,7 @@ FAST = ["--quiet", "--set", "adapt.min_level=3", "--set", "adapt.max_level=4", "
         "--set", "output.cells_csv=false"]
 # One step of a small capsule (642 nodes, P1, coarse tree).
 CAPSULE_FAST = ["--quiet", "--set", "capsule[0].nodes=642", "--set", "capsule[0].element_order=1",
-                "--set", "adapt.max_level=3", "--set", "adapt.wall_level=3", "--set", "adapt.membrane_band=2",
+                "--set", "adapt.max_level=4", "--set", "adapt.wall_level=3", "--set", "adapt.membrane_band=2",
                 "--set", "time.t_end=0.002", "--set", "output.checkpoint=true"]
 
 

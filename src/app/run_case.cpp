@@ -261,10 +261,12 @@ class FlowRun {
       throw RunFailure(fmt::format("{} (fluid.multigrid.fail_on_unconverged = true). Raise fluid.multigrid.max_cycles "
                                    "or the tolerance, or reduce dt. Output up to the last snapshot is kept in {}",
                                    what, out_.string()));
-    if (!warned_unconverged_) {
+    if (!warned_unconverged_) {  // every rank sees the same solves: rank 0 says it
       progress_.finish();
-      std::fprintf(stderr, "warning: %s; counted in the diagnostics column mg_unconverged (warned once)\n",
-                   what.c_str());
+      on_root(comm_, [&] {
+        std::fprintf(stderr, "warning: %s; counted in the diagnostics column mg_unconverged (warned once)\n",
+                     what.c_str());
+      });
       warned_unconverged_ = true;
     }
   }

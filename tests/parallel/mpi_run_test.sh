@@ -7,6 +7,7 @@
 #     the 3D duct (adaptive) on 4 ranks the same;
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
 #  3. carried faces (fluid.carry_faces) on 2 ranks: uniform as one rank, adaptive refused;
+#     a warning (unconverged solves) printed once, not once per rank;
 #     a uniform grid too big for this node, and a case with capsules, on 2 ranks are refused:
 #     exit 2, one capsflow line, no output folder (under Open MPI's mpirun -q, nothing else).
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
@@ -76,6 +77,12 @@ echo "checkpoint of 2 ranks restarted on 3: same final cells"
 carry=(run "$cases/cavity_2d.toml" --set time.t_end=0.1 --set fluid.carry_faces=true --set output.vtu=false --quiet)
 matches_one_rank carried-faces-uniform 2 "${carry[@]}" --adapt off --set adapt.max_level=6
 refused carried-faces-adaptive 'carry_faces' "${carry[@]}"
+
+# A warning is printed once, not once per rank: solves forced to miss their tolerance.
+"$mpiexec" -n 2 --oversubscribe "$capsflow" "${cavity[@]}" --set time.t_end=0.02 --set fluid.multigrid.max_cycles=1 \
+  --set fluid.multigrid.tolerance=1e-12 --out "$dir/warned" 2> "$dir/err" || fail "warning run: exit $?"
+[ "$(grep -c '^warning:' "$dir/err")" -eq 1 ] || fail "2 ranks: expected one warning line, got: $(cat "$dir/err")"
+echo "2 ranks: one warning line"
 
 # A uniform grid no node here can hold its share of: refused by every rank alike.
 refused huge-grid 'memory estimate .* on a node holding 2 of the 2 ranks' \
