@@ -1,7 +1,7 @@
 #pragma once
 // Cells named by their place on the Morton curve, and the cells around one: the vocabulary
-// of the ghost-layer constructions (ghost_layer.hpp, distributed_forest.hpp), which ask
-// other ranks about cells they do not hold.
+// of the ghost plan (distributed_forest.hpp), which asks other ranks about cells they do not
+// hold, and of leaf migration.
 #include <cstdint>
 #include <vector>
 

@@ -10,7 +10,7 @@
 #include "parallel/all_to_all.hpp"
 #include "parallel/reduce.hpp"
 #include "tree/leaf_migration.hpp"
-#include "tree/local_forest.hpp"
+#include "tree/tree_from_cells.hpp"
 
 namespace capsflow::tree {
 

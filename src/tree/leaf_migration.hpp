@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "parallel/comm.hpp"
-#include "tree/ghost_layer.hpp"
+#include "tree/curve_stencil.hpp"
 #include "tree/partition.hpp"
 
 namespace capsflow::tree {
