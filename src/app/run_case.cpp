@@ -351,13 +351,20 @@ class FlowRun {
     throw Interrupted(interrupt_signal(), step, ns_.time(), checkpoint(step, dt));
   }
 
+  // fluid_NNNNNN.vtu on one rank; on N ranks each rank writes its owned leaves as a piece of
+  // fluid_NNNNNN.pvtu (no rank gathers the grid), which rank 0 lists once every piece exists.
   void snapshot(std::optional<io::PvdSeries>& series, long step) {
-    const std::string file = numbered("fluid", step, "vtu");
-    with_whole_tree([&](const tree::Tree<D>& t) {
-      std::vector<std::span<const double>> u;
-      for (int d = 0; d < D; ++d) u.push_back(t.values(ns_.velocity(d)));
-      const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {t.values(ns_.pressure())}}};
-      io::write_tree_vtu<D>(out_ / file, t, fields);
+    std::vector<std::span<const double>> u;
+    for (int d = 0; d < D; ++d) u.push_back(tree_.values(ns_.velocity(d)));
+    const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {tree_.values(ns_.pressure())}}};
+    const std::string file = numbered("fluid", step, forest_ ? "pvtu" : "vtu");
+    if (forest_) {
+      io::write_tree_pvtu_piece<D>(out_ / file, tree_, fields, comm_.rank(), comm_.size());
+      (void)tree_.global_max(std::int64_t{0});  // every piece written before the series lists it
+    } else {
+      io::write_tree_vtu<D>(out_ / file, tree_, fields);
+    }
+    on_root(comm_, [&] {
       series->add(ns_.time(), file);  // relative to series.pvd, next to it
       if (capsules_) capsules_->snapshot(out_, step, ns_.time(), *series);
     });

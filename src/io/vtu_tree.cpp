@@ -32,17 +32,15 @@ void check_fields(const tree::Tree<D>& tree, std::span<const CellField> fields) 
   }
 }
 
-}  // namespace
-
+// The owned leaves as a grid with their level and the fields as cell data.
 template <int D>
-void write_tree_vtu(const std::filesystem::path& path, const tree::Tree<D>& tree,
-                    std::span<const CellField> fields) {
+vtkSmartPointer<vtkUnstructuredGrid> leaves_grid(const tree::Tree<D>& tree, std::span<const CellField> fields) {
   check_fields(tree, fields);
   constexpr int kCorners = 1 << D;
   // VTK's corner order from the bits (x, y, z) of each corner: counter-clockwise per face.
   constexpr int kBits[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
                                {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
-  const std::span<const tree::Index> leaves = tree.leaves();
+  const std::span<const tree::Index> leaves = tree.owned_leaves();
   const vtkIdType n = static_cast<vtkIdType>(leaves.size());
 
   auto points = vtkSmartPointer<vtkPoints>::New();
@@ -85,9 +83,27 @@ void write_tree_vtu(const std::filesystem::path& path, const tree::Tree<D>& tree
         buffer[static_cast<std::size_t>(i * nc) + k] = f.components[k][leaves[static_cast<std::size_t>(i)]];
     grid->GetCellData()->AddArray(detail::double_array(f.name, buffer, nc));
   }
-  detail::write_vtu(path, grid);
+  return grid;
 }
 
+}  // namespace
+
+template <int D>
+void write_tree_vtu(const std::filesystem::path& path, const tree::Tree<D>& tree,
+                    std::span<const CellField> fields) {
+  detail::write_vtu(path, leaves_grid(tree, fields));
+}
+
+template <int D>
+void write_tree_pvtu_piece(const std::filesystem::path& path, const tree::Tree<D>& tree,
+                           std::span<const CellField> fields, int piece, int pieces) {
+  detail::write_pvtu_piece(path, leaves_grid(tree, fields), piece, pieces);
+}
+
+template void write_tree_pvtu_piece<2>(const std::filesystem::path&, const tree::Tree<2>&,
+                                       std::span<const CellField>, int, int);
+template void write_tree_pvtu_piece<3>(const std::filesystem::path&, const tree::Tree<3>&,
+                                       std::span<const CellField>, int, int);
 template void write_tree_vtu<2>(const std::filesystem::path&, const tree::Tree<2>&,
                                 std::span<const CellField>);
 template void write_tree_vtu<3>(const std::filesystem::path&, const tree::Tree<3>&,

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # capsflow on N MPI ranks against one rank, through the binary as a user runs it:
-#  1. the 2D cavity (uniform 64^2, t = 0.3) on 2 and 3 ranks, and adaptive (levels 5-7,
+#  1. the 2D cavity (uniform 64^2, t = 0.3) on 2 and 3 ranks (its .pvtu snapshots read back
+#     as one rank's .vtu), and adaptive (levels 5-7,
 #     repartitioned after every adaptation) on 3 ranks, writes the same diagnostics (every
 #     column but the wall time), the same cells_final.csv and the same snapshots' count as
 #     the run without mpirun;
@@ -31,6 +32,16 @@ for n in 2 3; do
   [ -s "$dir/err$n" ] && fail "$n ranks wrote to stderr: $(cat "$dir/err$n")"
 done
 echo "2 and 3 ranks: diagnostics and final cells identical to one rank"
+
+# Snapshots on N ranks: fluid_NNNNNN.pvtu with one piece per rank, read back with VTK's XML
+# reader, hold the cells and values of one rank's fluid_NNNNNN.vtu.
+for vtu in "$dir"/serial/fluid_*.vtu; do
+  name=$(basename "$vtu" .vtu)
+  /usr/bin/python3 "$(dirname "$0")/same_grid.py" "$vtu" "$dir/np3/$name.pvtu" > /dev/null ||
+    fail "3 ranks: $name.pvtu differs from one rank's $name.vtu"
+done
+grep -q 'fluid_000010.pvtu' "$dir/np3/series.pvd" || fail "3 ranks: series.pvd does not list the .pvtu"
+echo "3 ranks: every .pvtu snapshot holds one rank's cells and values"
 
 # matches_one_rank LABEL RANKS ARGS...: capsflow ARGS on one rank and on RANKS ranks writes the
 # same diagnostics (every column but the wall time) and, when written, the same final cells.
