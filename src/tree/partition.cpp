@@ -29,6 +29,12 @@ Partition Partition::all_on_root(int ranks) {
   return Partition(std::move(split));
 }
 
+Partition Partition::from_splits(std::vector<Key> split) {
+  if (split.size() < 2 || split.front() != 0 || !std::is_sorted(split.begin(), split.end()))
+    throw std::invalid_argument("partition: split keys must start at 0 and not decrease (at least one rank)");
+  return Partition(std::move(split));
+}
+
 int Partition::owner(Key position) const {
   // The last rank whose first position is <= position; empty ranks share their successor's
   // split, and upper_bound skips past them to the rank that owns the position.

@@ -40,6 +40,10 @@ class Partition {
   static Partition by_weight(const parallel::Comm& comm, std::span<const Key> positions,
                              std::span<const std::int64_t> weights);
 
+  // The partition with these split keys (split[0] = 0, non-decreasing; the last past every
+  // key): one every rank already agrees on, or a test's. Throws std::invalid_argument otherwise.
+  static Partition from_splits(std::vector<Key> split);
+
   [[nodiscard]] int ranks() const { return static_cast<int>(split_.size()) - 1; }
   // The owner of a curve position.
   [[nodiscard]] int owner(Key position) const;
