@@ -89,15 +89,9 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
         break;
       }
       const double* u = uf[d].data();
-      double sum = 0.0;
-      for (int kz = 0, s = 0; kz < st.n[2]; ++kz)
-        for (int jy = 0; jy < st.n[1]; ++jy) {
-          const double wyz = st.w[2][kz] * st.w[1][jy];
-          double row = 0.0;
-          for (int ix = 0; ix < st.n[0]; ++ix, ++s) row += u[c[s]] * st.w[0][ix];
-          sum += wyz * row;
-        }
-      v(d, i) = sum;
+      double values[kMaxCells];
+      for (int s = 0; s < st.size(); ++s) values[s] = u[c[s]];
+      v(d, i) = box_sum(st, values);
     }
   }
   if (bad < n) {
@@ -108,6 +102,82 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
     }
   }
 }
+
+template <Kernel K>
+void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
+                             const OwnedPositions& own, PartialVelocities& out) {
+  constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
+  require_cell_sized(t, uf, "face field");
+  const Eigen::Index n = x.cols();
+  out.kind.assign(static_cast<std::size_t>(3 * n), PartialVelocities::kNothing);
+  out.sum.assign(static_cast<std::size_t>(3 * n), 0.0);
+  out.offset.assign(static_cast<std::size_t>(3 * n), 0);
+  out.count.assign(static_cast<std::size_t>(3 * n), 0);
+  out.slots.clear();
+  out.values.clear();
+  const int level = t.max_level();
+  const double h = t.cell_size(level);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) {
+      const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), d);
+      Index c[kMaxCells];
+      require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName, own);
+      const double* u = uf[d].data();
+      const auto k = static_cast<std::size_t>(3 * i + d);
+      int owned = 0;
+      for (int s = 0; s < st.size(); ++s) owned += c[s] != tree::kNone;
+      if (owned == 0) continue;
+      if (owned == st.size()) {  // the whole sum here, in box_sum's order
+        double values[kMaxCells];
+        for (int s = 0; s < st.size(); ++s) values[s] = u[c[s]];
+        out.kind[k] = PartialVelocities::kSum;
+        out.sum[k] = box_sum(st, values);
+        continue;
+      }
+      out.kind[k] = PartialVelocities::kSlots;
+      out.offset[k] = static_cast<std::uint32_t>(out.values.size());
+      out.count[k] = static_cast<std::uint32_t>(owned);
+      for (int s = 0; s < st.size(); ++s)
+        if (c[s] != tree::kNone) {
+          out.slots.push_back(static_cast<std::uint16_t>(s));
+          out.values.push_back(u[c[s]]);
+        }
+    }
+}
+
+template <Kernel K>
+double complete_face_velocity(const tree::TreeOptions<3>& options, double h, const double* x, int d,
+                              std::span<const double> values) {
+  const BoxStencil st = face_stencil<K>(options, h, x, d);
+  if (values.size() != static_cast<std::size_t>(st.size()))
+    throw std::logic_error(fmt::format("ibm: {} gathered values for a stencil of {} cells", values.size(), st.size()));
+  return box_sum(st, values.data());
+}
+
+template void interpolate_faces_owned<CosineKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+                                                    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+template void interpolate_faces_owned<HatKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+                                                 const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+template void interpolate_faces_owned<Peskin4Kernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+                                                     const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+template void interpolate_faces_owned<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+template void interpolate_faces_owned<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+template void interpolate_faces_owned<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+template double complete_face_velocity<CosineKernel>(const tree::TreeOptions<3>&, double, const double*, int,
+                                                     std::span<const double>);
+template double complete_face_velocity<HatKernel>(const tree::TreeOptions<3>&, double, const double*, int,
+                                                  std::span<const double>);
+template double complete_face_velocity<Peskin4Kernel>(const tree::TreeOptions<3>&, double, const double*, int,
+                                                      std::span<const double>);
+template double complete_face_velocity<DivergenceFree<CosineKernel>>(const tree::TreeOptions<3>&, double,
+                                                                     const double*, int, std::span<const double>);
+template double complete_face_velocity<DivergenceFree<HatKernel>>(const tree::TreeOptions<3>&, double, const double*,
+                                                                  int, std::span<const double>);
+template double complete_face_velocity<DivergenceFree<Peskin4Kernel>>(const tree::TreeOptions<3>&, double,
+                                                                      const double*, int, std::span<const double>);
 
 template void interpolate_faces<CosineKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
                                               const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);

@@ -25,12 +25,15 @@
 // Parallel over nodes: each node gathers its own sum, so there is nothing to race on and
 // the result does not depend on the number of threads.
 #include <array>
+#include <cstdint>
 #include <span>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "fluid/faces.hpp"
 #include "ibm/kernels.hpp"
+#include "ibm/stencil.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::ibm {
@@ -56,6 +59,46 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
 inline void interpolate_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
                               const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
   with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v); });
+}
+
+// On N ranks (stencil.hpp, OwnedPositions): what this rank knows of each node's face
+// velocity from the cells it owns. Per node i and component d (entry 3 i + d): nothing (no
+// stencil cell here), the whole sum (every cell here: box_sum's order, as one rank), or the
+// slots and values of the cells here, which the node's owner gathers from every rank and
+// sums with complete_face_velocity (the same order again: the result is one rank's to the
+// last bit; an all-reduce of partial sums would depend on the rank count).
+struct PartialVelocities {
+  static constexpr std::uint8_t kNothing = 0, kSum = 1, kSlots = 2;
+  std::vector<std::uint8_t> kind;
+  std::vector<double> sum;
+  std::vector<std::uint32_t> offset, count;  // into slots and values
+  std::vector<std::uint16_t> slots;
+  std::vector<double> values;
+};
+
+// Throws StencilError for a stencil cell this rank owns that is not an active leaf of the
+// max level, or one beyond a wall.
+template <Kernel K>
+void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
+                             const OwnedPositions& own, PartialVelocities& out);
+
+inline void interpolate_faces_owned(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
+                                    const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
+                                    const OwnedPositions& own, PartialVelocities& out) {
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces_owned<K>(t, uf, x, own, out); });
+}
+
+// Component d of the velocity at x from the values of every slot of its face stencil, in
+// slot order. Throws std::logic_error for a count that is not the stencil's.
+template <Kernel K>
+[[nodiscard]] double complete_face_velocity(const tree::TreeOptions<3>& options, double h, const double* x, int d,
+                                            std::span<const double> values);
+
+[[nodiscard]] inline double complete_face_velocity(KernelKind kind, bool divergence_free,
+                                                   const tree::TreeOptions<3>& options, double h, const double* x,
+                                                   int d, std::span<const double> values) {
+  return with_face_kernel(kind, divergence_free,
+                          [&]<Kernel K>(K) { return complete_face_velocity<K>(options, h, x, d, values); });
 }
 
 }  // namespace capsflow::ibm

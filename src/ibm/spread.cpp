@@ -51,7 +51,7 @@ BoxStencil stencil_of(const tree::TreeOptions<3>& o, double h, const double* x, 
 // (face_axis = -1) or on the faces normal to face_axis, to f[c0..c1).
 template <Kernel K>
 void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
-                 SpreadWorkspace& ws, int face_axis, int c0, int c1) {
+                 SpreadWorkspace& ws, int face_axis, int c0, int c1, const OwnedPositions& own) {
   const Eigen::Index n = x.cols();
   const int level = t.max_level();
   const double h = t.cell_size(level), inv_volume = 1.0 / (h * h * h);
@@ -79,15 +79,18 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
       std::copy_n(st.w[1].begin(), widths[1], w + widths[0]);
       std::copy_n(st.w[2].begin(), widths[2], w + widths[0] + widths[1]);
       Index* c = ws.cells.data() + i * cells_per_node;
-      if (find_box(t, level, st.first, widths, c) >= 0) {
+      ws.lowest[i] = 1;  // an empty range: no thread reads this node
+      ws.highest[i] = 0;
+      if (find_owned_box(t, level, st.first, widths, own, c) >= 0) {
         bad = std::min(bad, i);
-        ws.lowest[i] = 1;  // an empty range: no thread reads this node
-        ws.highest[i] = 0;
         continue;
       }
-      const auto [lo, hi] = std::minmax_element(c, c + cells_per_node);
-      ws.lowest[i] = *lo;
-      ws.highest[i] = *hi;
+      for (int s = 0; s < cells_per_node; ++s) {  // kNone: another rank's cell
+        if (c[s] == tree::kNone) continue;
+        if (ws.lowest[i] > ws.highest[i]) ws.lowest[i] = ws.highest[i] = c[s];
+        ws.lowest[i] = std::min(ws.lowest[i], c[s]);
+        ws.highest[i] = std::max(ws.highest[i], c[s]);
+      }
     }
     // (implicit barrier: the stencils are complete, bad is reduced)
     if (bad == n) {
@@ -120,7 +123,7 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
     const BoxStencil st = stencil_of<K>(options, h, &x(0, bad), face_axis);
     std::vector<Index> c(static_cast<std::size_t>(cells_per_node));
     require_box(t, level, st.first, st.n, c.data(), bad, &x(0, bad), face_axis < 0 ? "spreading" : "face spreading",
-                K::kName);
+                K::kName, own);
   }
 }
 
@@ -128,36 +131,36 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
 
 template <Kernel K>
 void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
-            SpreadWorkspace& ws, SpreadMode mode) {
+            SpreadWorkspace& ws, SpreadMode mode, const OwnedPositions& own) {
   prepare(t, x.cols(), forces, f, mode);
-  spread_pass<K>(t, x, forces, f, ws, -1, 0, 3);
+  spread_pass<K>(t, x, forces, f, ws, -1, 0, 3, own);
 }
 
 template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
-                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode) {
+                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode, const OwnedPositions& own) {
   prepare(t, x.cols(), forces, f, mode);
-  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1);
+  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1, own);
 }
 
 template void spread<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                   CellVector&, SpreadWorkspace&, SpreadMode);
+                                   CellVector&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                CellVector&, SpreadWorkspace&, SpreadMode);
+                                CellVector&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                    CellVector&, SpreadWorkspace&, SpreadMode);
+                                    CellVector&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 
 template void spread_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 
 }  // namespace capsflow::ibm

@@ -32,6 +32,7 @@
 
 #include "fluid/faces.hpp"
 #include "ibm/kernels.hpp"
+#include "ibm/stencil.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::ibm {
@@ -52,29 +53,32 @@ struct SpreadWorkspace {
   std::vector<Index> lowest, highest;  // per node: the range of its stencil's cell indices
 };
 
-// x: node positions, forces: point forces (3 x nodes each).
+// x: node positions, forces: point forces (3 x nodes each). own: on N ranks, the positions
+// of the cells this rank owns: only those cells receive forces (and must exist), the others'
+// owners spread the same node into theirs (stencil.hpp, OwnedPositions).
 template <Kernel K>
 void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
-            SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign);
+            SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign, const OwnedPositions& own = {});
 
 inline void spread(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
                    const Eigen::Matrix3Xd& forces, CellVector& f, SpreadWorkspace& ws,
-                   SpreadMode mode = SpreadMode::assign) {
-  with_kernel(kind, [&]<Kernel K>(K) { spread<K>(t, x, forces, f, ws, mode); });
+                   SpreadMode mode = SpreadMode::assign, const OwnedPositions& own = {}) {
+  with_kernel(kind, [&]<Kernel K>(K) { spread<K>(t, x, forces, f, ws, mode, own); });
 }
 
 // f: one array per component over the tree's cell slots, slot c the lower face of cell c
 // normal to d (a fluid::FaceField).
 template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
-                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign);
+                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign,
+                  const OwnedPositions& own = {});
 
 // divergence_free: with DivergenceFree<K> (kernels.hpp), the adjoint of the divergence-free
 // interpolation.
 inline void spread_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
                          const Eigen::Matrix3Xd& forces, fluid::FaceField<3>& f, SpreadWorkspace& ws,
-                         SpreadMode mode = SpreadMode::assign) {
-  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode); });
+                         SpreadMode mode = SpreadMode::assign, const OwnedPositions& own = {}) {
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode, own); });
 }
 
 // faces = f (or faces + f with SpreadMode::add) on every fine face; coarse faces: the mean of

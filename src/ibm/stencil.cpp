@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "tree/partition.hpp"
+
 namespace capsflow::ibm {
 
 namespace {
@@ -99,6 +101,34 @@ int find_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, co
   return -1;
 }
 
+int find_owned_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+                   const OwnedPositions& own, Index* cells) {
+  if (own.all()) return find_box(t, level, first, n, cells);
+  const int size = n[0] * n[1] * n[2];
+  if (find_box(t, level, first, n, cells) < 0) {  // every cell exists here: keep the owned ones
+    for (int s = 0; s < size; ++s)
+      if (!t.owns(cells[s])) cells[s] = tree::kNone;
+    return -1;
+  }
+  const auto& o = t.options();
+  for (int s = 0; s < size; ++s) {
+    tree::Coords<3> ijk{first[0] + s % n[0], first[1] + (s / n[0]) % n[1], first[2] + s / (n[0] * n[1])};
+    for (int d = 0; d < 3; ++d) {
+      const auto extent = static_cast<std::int32_t>(o.roots[d] << level);
+      if (ijk[d] >= 0 && ijk[d] < extent) continue;
+      if (!o.periodic[d]) return s;  // beyond a wall: no rank owns it
+      ijk[d] = ((ijk[d] % extent) + extent) % extent;
+    }
+    cells[s] = tree::kNone;
+    if (!own.contains(tree::curve_position<3>(level, tree::morton_encode<3>(ijk), o.max_level))) continue;
+    const Index c = t.find(level, ijk);
+    const tree::Level<3>& lv = t.level(level);
+    if (c == tree::kNone || c >= lv.active_end() || !lv.is_leaf(c)) return s;
+    cells[s] = c;
+  }
+  return -1;
+}
+
 bool box_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
                         const Index* cells) {
   const auto& o = t.options();
@@ -117,8 +147,8 @@ bool box_is_the_stencil(const tree::Tree<3>& t, int level, const tree::Coords<3>
 
 void require_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
                  Index* cells, std::int64_t node, const double* x, std::string_view operation,
-                 std::string_view kernel) {
-  const int slot = find_box(t, level, first, n, cells);
+                 std::string_view kernel, const OwnedPositions& own) {
+  const int slot = find_owned_box(t, level, first, n, own, cells);
   if (slot < 0) return;
   const tree::Coords<3> ijk{first[0] + slot % n[0], first[1] + (slot / n[0]) % n[1], first[2] + slot / (n[0] * n[1])};
   throw_missing_cell(t, level, ijk, node, x, operation, kernel);

@@ -143,6 +143,37 @@ int find_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, 
   return find_box(t, level, first, {W, W, W}, cells);
 }
 
+// The curve positions (tree/partition.hpp) of the cells this rank owns, [begin, end): on N
+// ranks spreading adds into, and interpolation reads, only the stencil cells whose position
+// lies here (the other cells' owners get the node too). One rank: every position.
+struct OwnedPositions {
+  tree::Key begin = 0, end = ~tree::Key{0};
+  [[nodiscard]] bool all() const { return begin == 0 && end == ~tree::Key{0}; }
+  [[nodiscard]] bool contains(tree::Key p) const { return p >= begin && p < end; }
+};
+
+// As find_box for the cells of the box this rank owns: cells[slot] is the active leaf of
+// `level` there, or kNone where another rank owns the cell. Returns -1, or the first slot
+// whose cell this rank owns but is not an active leaf of the level, or that lies beyond a
+// wall. With own.all() the same as find_box.
+int find_owned_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
+                   const OwnedPositions& own, Index* cells);
+
+// sum over the slots of w[0][i] w[1][j] w[2][k] values[slot], in the one order every
+// interpolation uses (rows along x first): a node's velocity comes out the same to the last
+// bit whether one rank reads every value or the values were gathered from their owners.
+[[nodiscard]] inline double box_sum(const BoxStencil& st, const double* values) {
+  double sum = 0.0;
+  for (int kz = 0, s = 0; kz < st.n[2]; ++kz)
+    for (int jy = 0; jy < st.n[1]; ++jy) {
+      const double wyz = st.w[2][kz] * st.w[1][jy];
+      double row = 0.0;
+      for (int ix = 0; ix < st.n[0]; ++ix, ++s) row += values[s] * st.w[0][ix];
+      sum += wyz * row;
+    }
+  return sum;
+}
+
 // Whether cells[] holds, for each stencil slot, an active leaf of `level` whose key
 // decodes to first + (i, j, k) (wrapped): the anchors and descents of find_patch are
 // shortcuts, the keys are the truth they must agree with.
@@ -186,10 +217,11 @@ class StencilError : public std::runtime_error {
                                      std::int64_t node, const double* x, std::string_view operation,
                                      std::string_view kernel);
 
-// Finds the box of node `node` and throws StencilError naming its first missing cell.
+// Finds the box of node `node` and throws StencilError naming its first missing cell (of the
+// cells this rank owns).
 void require_box(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, const std::array<int, 3>& n,
                  Index* cells, std::int64_t node, const double* x, std::string_view operation,
-                 std::string_view kernel);
+                 std::string_view kernel, const OwnedPositions& own = {});
 template <int W>
 void require_patch(const tree::Tree<3>& t, int level, const tree::Coords<3>& first, Index* cells,
                    std::int64_t node, const double* x, std::string_view operation, std::string_view kernel) {
