@@ -1,6 +1,9 @@
 #include "app/capsule_set.hpp"
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -9,6 +12,8 @@
 #include "io/vtu_surface.hpp"
 #include "membrane/diagnostics.hpp"
 #include "membrane/shapes.hpp"
+#include "parallel/all_or_none.hpp"
+#include "parallel/all_to_all.hpp"
 
 namespace capsflow::app {
 
@@ -63,7 +68,18 @@ std::string numbered(const char* stem, long step, int capsule) {
 
 }  // namespace
 
-CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
+// Capsule i's reference membrane (mesh and law) from its [[capsule]] table.
+membrane::MembraneModel reference_model(const io::CaseConfig& c, int i) {
+  const io::CapsuleConfig& k = c.capsules[static_cast<std::size_t>(i)];
+  const Eigen::Vector3d centre(k.centre[0], k.centre[1], k.centre[2]);
+  membrane::Mesh mesh = membrane::make_icosphere(
+      {.order = element_order(k.element_order, i), .level = icosphere_level(k.nodes, i), .radius = k.radius,
+       .centre = centre});
+  const membrane::LawParameters law{.kind = law_kind(k.law), .gs = ibm::shear_modulus(k.Ca, c.fluid.Re), .c = k.C};
+  return membrane::MembraneModel(std::move(mesh), law);
+}
+
+CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : case_(c), comm_(parallel::Comm::world()) {
   // membrane_band counts the cells beyond the node's cell; the coupling's margin those beyond
   // the kernels' half support (2 cells for the widest kernels).
   coupling_ = std::make_unique<ibm::CapsuleCoupling>(ns, std::max(0, c.adapt.membrane_band - 2));
@@ -76,12 +92,8 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
     const io::CapsuleConfig& k = c.capsules[i];
     const int index = static_cast<int>(i);
     const Eigen::Vector3d centre(k.centre[0], k.centre[1], k.centre[2]);
-    membrane::Mesh mesh = membrane::make_icosphere(
-        {.order = element_order(k.element_order, index),
-         .level = icosphere_level(k.nodes, index), .radius = k.radius, .centre = centre});
-    const membrane::LawParameters law{
-        .kind = law_kind(k.law),
-        .gs = ibm::shear_modulus(k.Ca, c.fluid.Re), .c = k.C};
+    membrane::MembraneModel model = reference_model(c, index);
+    const membrane::Mesh& mesh = model.mesh();
     Eigen::Matrix3Xd x = mesh.nodes;
     switch (k.shape) {
       case io::InitialShape::sphere: break;
@@ -94,10 +106,14 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) {
     }
     reference_area_.push_back(membrane::surface_area(mesh, mesh.nodes));
     reference_volume_.push_back(membrane::enclosed_volume(mesh, mesh.nodes));
-    coupling_->add_capsule(membrane::MembraneModel(std::move(mesh), law), std::move(x),
+    coupling_->add_capsule(std::move(model), std::move(x),
                            {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel), .staggered = k.staggered,
                             .divergence_free = k.divergence_free});
   }
+}
+
+void CapsuleSet::distribute() {
+  coupling_->distribute([this](int i) { return reference_model(case_, i); });
 }
 
 CapsuleDiagnostics CapsuleSet::diagnostics(int k) const {
@@ -114,19 +130,44 @@ std::vector<std::string> CapsuleSet::columns() {
 }
 
 std::vector<double> CapsuleSet::rows(long step, double t) const {
+  std::vector<double> mine;  // this rank's capsules, ids ascending
+  parallel::all_or_none(comm_, [&] {
+    for (int k = 0; k < coupling_->num_capsules(); ++k) {
+      if (!coupling_->owns(k)) continue;
+      const CapsuleDiagnostics m = diagnostics(k);
+      const double energy = coupling_->membrane_energy(k);
+      mine.insert(mine.end(), {double(step), t, double(k), m.d12, m.d12_bbox, m.area_rel, m.volume_rel, m.centroid.x(),
+                               m.centroid.y(), m.centroid.z(), energy, coupling_->node_power(k),
+                               coupling_->capsule(k).work});
+    }
+  });
+  if (!comm_.distributed()) return mine;
+  // Rank 0 gathers every capsule's row and orders them by capsule.
+  std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm_.size()));
+  for (const double v : mine) send[0].push_back(std::bit_cast<std::uint64_t>(v));
+  const auto received = parallel::all_to_all(comm_, send);
+  if (!comm_.is_root()) return {};
+  const std::size_t width = columns().size();
+  std::vector<std::vector<double>> all;
+  for (const auto& words : received)
+    for (std::size_t k = 0; k + width <= words.size(); k += width) {
+      std::vector<double> row(width);
+      for (std::size_t j = 0; j < width; ++j) row[j] = std::bit_cast<double>(words[k + j]);
+      all.push_back(std::move(row));
+    }
+  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a[2] < b[2]; });
   std::vector<double> out;
-  for (int k = 0; k < coupling_->num_capsules(); ++k) {
-    const CapsuleDiagnostics m = diagnostics(k);
-    const double energy = coupling_->membrane_energy(k);
-    out.insert(out.end(), {double(step), t, double(k), m.d12, m.d12_bbox, m.area_rel, m.volume_rel, m.centroid.x(),
-                           m.centroid.y(), m.centroid.z(), energy, coupling_->node_power(k),
-                           coupling_->capsule(k).work});
-  }
+  for (const auto& row : all) out.insert(out.end(), row.begin(), row.end());
   return out;
 }
 
-void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries& series) const {
-  for (int i = 0; i < coupling_->num_capsules(); ++i) {
+CapsuleDiagnostics CapsuleSet::from_row(std::span<const double> row) {
+  return {row[3], row[4], row[5], row[6], Eigen::Vector3d(row[7], row[8], row[9])};
+}
+
+void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries* series) const {
+  for (int i = 0; i < coupling_->num_capsules(); ++i) {  // each owner writes its capsules
+    if (!coupling_->owns(i)) continue;
     const ibm::Capsule& c = coupling_->capsule(i);
     const auto tensions = c.model.element_tensions(c.x);
     std::vector<double> t1, t2;
@@ -139,36 +180,39 @@ void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t,
     if (c.forces.cols() == c.x.cols()) points.push_back({"force", {c.forces.data(), std::size_t(c.forces.size())}, 3});
     if (c.velocity.cols() == c.x.cols()) points.push_back({"velocity", {c.velocity.data(), std::size_t(c.velocity.size())}, 3});
     const std::vector<io::SurfaceArray> cells{{"tension_major", t1, 1}, {"tension_minor", t2, 1}};
-    const std::string file = numbered("membrane", step, i);
-    io::write_surface_vtu(dir / file, {.positions = {c.x.data(), std::size_t(c.x.size())},
-                                       .elements = mesh.elements,
-                                       .order = surface_order(mesh.order),
-                                       .point_data = points, .cell_data = cells});
-    series.add(t, file, 1 + i);  // relative to series.pvd, which is in dir
+    io::write_surface_vtu(dir / numbered("membrane", step, i), {.positions = {c.x.data(), std::size_t(c.x.size())},
+                                                                 .elements = mesh.elements,
+                                                                 .order = surface_order(mesh.order),
+                                                                 .point_data = points, .cell_data = cells});
   }
+  if (comm_.distributed()) comm_.barrier();  // every membrane written before rank 0 lists them
+  if (series)
+    for (int i = 0; i < coupling_->num_capsules(); ++i) series->add(t, numbered("membrane", step, i), 1 + i);
 }
 
 void CapsuleSet::write_final(const std::filesystem::path& dir) const {
+  const auto states = coupling_->gather_on_root();
+  if (!comm_.is_root()) return;
   std::vector<double> all;
-  for (int i = 0; i < coupling_->num_capsules(); ++i) {
-    const auto& x = coupling_->capsule(i).x;
-    all.insert(all.end(), x.data(), x.data() + x.size());
-  }
+  for (const auto& s : states) all.insert(all.end(), s.x.data(), s.x.data() + s.x.size());
   io::write_nodes_csv(dir / "membrane_final.csv", all);
 }
 
 std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
+  const auto states = coupling_->gather_on_root();
   std::vector<io::ExtraArray> extras;
-  for (int i = 0; i < coupling_->num_capsules(); ++i) {
-    const auto& x = coupling_->capsule(i).x;
+  if (!comm_.is_root()) return extras;
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    const auto& s = states[i];
+    const auto& x = s.x;
     extras.push_back({fmt::format("capsule_{}_positions", i), {std::size_t(x.cols()), 3}, {x.data(), x.data() + x.size()}});
-    const auto& xa = coupling_->capsule(i).x_at_adapt;
+    const auto& xa = s.x_at_adapt;
     extras.push_back({fmt::format("capsule_{}_positions_at_adapt", i), {std::size_t(xa.cols()), 3},
                       {xa.data(), xa.data() + xa.size()}});
     // The membrane's work since the run began (the energy budget's W_membrane).
-    extras.push_back({fmt::format("capsule_{}_work", i), {1}, {coupling_->capsule(i).work}});
+    extras.push_back({fmt::format("capsule_{}_work", i), {1}, {s.work}});
     // V of the last step: the next step's AB2 needs it (ibm/capsule_coupling.hpp).
-    const auto& v = coupling_->capsule(i).velocity;
+    const auto& v = s.velocity;
     if (v.cols() == x.cols())
       extras.push_back({fmt::format("capsule_{}_velocity", i), {std::size_t(v.cols()), 3}, {v.data(), v.data() + v.size()}});
   }

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "parallel/all_or_none.hpp"
+
 namespace capsflow::app {
 
 namespace {
@@ -11,25 +13,32 @@ enum Slot { kMembraneStart, kKineticStart, kDissipated, kBoundaryWork, kKinetic,
             kSpreadPower, kAdaptationLoss, kSlots };
 }  // namespace
 
+// The sum over the capsules of f(k), each on its owner, exact: the same on any number of
+// ranks (and an inverted element found by one owner stops every rank). Collective.
+template <int D>
+template <class F>
+double EnergyBudget<D>::over_capsules(F&& f) const {
+  parallel::ExactSum sum;
+  parallel::all_or_none(comm_, [&] {
+    for (int k = 0; coupling_ && k < coupling_->num_capsules(); ++k)
+      if (coupling_->owns(k)) sum.add(f(k));
+  });
+  return ns_.tree().global_sum(sum);
+}
+
 template <int D>
 double EnergyBudget<D>::membrane_energy() const {
-  double e = 0.0;
-  for (int k = 0; coupling_ && k < coupling_->num_capsules(); ++k) e += coupling_->membrane_energy(k);
-  return e;
+  return over_capsules([this](int k) { return coupling_->membrane_energy(k); });
 }
 
 template <int D>
 double EnergyBudget<D>::membrane_work() const {
-  double w = 0.0;
-  for (int k = 0; coupling_ && k < coupling_->num_capsules(); ++k) w += coupling_->capsule(k).work;
-  return w;
+  return over_capsules([this](int k) { return coupling_->capsule(k).work; });
 }
 
 template <int D>
 double EnergyBudget<D>::node_power() const {
-  double p = 0.0;
-  for (int k = 0; coupling_ && k < coupling_->num_capsules(); ++k) p += coupling_->node_power(k);
-  return p;
+  return over_capsules([this](int k) { return coupling_->node_power(k); });
 }
 
 template <int D>

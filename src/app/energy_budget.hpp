@@ -25,6 +25,7 @@
 #include "fluid/energy.hpp"
 #include "ibm/capsule_coupling.hpp"
 #include "io/checkpoint.hpp"
+#include "parallel/comm.hpp"
 
 namespace capsflow::app {
 
@@ -32,7 +33,8 @@ template <int D>
 class EnergyBudget {
  public:
   // coupling: the run's capsules, or nullptr (then the membrane columns are 0).
-  EnergyBudget(fluid::NavierStokes<D>& ns, const ibm::CapsuleCoupling* coupling) : ns_(ns), coupling_(coupling) {}
+  EnergyBudget(fluid::NavierStokes<D>& ns, const ibm::CapsuleCoupling* coupling)
+      : ns_(ns), coupling_(coupling), comm_(parallel::Comm::world()) {}
 
   // The reference state at the start of a new run (the integrals start at 0). Collective.
   void start();
@@ -53,6 +55,8 @@ class EnergyBudget {
   [[nodiscard]] std::vector<io::ExtraArray> checkpoint_extras() const;
 
  private:
+  template <class F>
+  [[nodiscard]] double over_capsules(F&& f) const;
   [[nodiscard]] double membrane_energy() const;
   [[nodiscard]] double membrane_work() const;
   [[nodiscard]] double node_power() const;
@@ -60,6 +64,7 @@ class EnergyBudget {
 
   fluid::NavierStokes<D>& ns_;
   const ibm::CapsuleCoupling* coupling_;
+  parallel::Comm comm_;
   double membrane_start_ = 0.0, kinetic_start_ = 0.0;  // at the run's start
   double dissipated_ = 0.0, boundary_work_ = 0.0;       // W_dissipation, W_boundary
   double adaptation_loss_ = 0.0;                        // W_adaptation

@@ -133,11 +133,15 @@ class FlowRun {
       }
     } else {
       if (comm_.size() > 1) distribute_coarse_start();
+      if (capsules_) capsules_->distribute();  // each rank keeps its own (N ranks)
       (void)adaptation_.refine_initial();
       budget_->start();
     }
     // A restart on N ranks: every rank has read the same forest; each keeps its part.
-    if (comm_.size() > 1 && !forest_) forest_ = tree::distribute(comm_, tree_);
+    if (comm_.size() > 1 && !forest_) {
+      forest_ = tree::distribute(comm_, tree_);
+      if (capsules_) capsules_->distribute();
+    }
     // Diagnostics and the series are rank 0's.
     std::optional<io::DiagnosticsCsv> diagnostics, capsule_rows;
     std::optional<io::PvdSeries> series;
@@ -202,15 +206,16 @@ class FlowRun {
       if (row) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        const CapsuleDiagnostics m = capsules_ ? capsules_->diagnostics(0) : CapsuleDiagnostics{nan, nan, nan, nan};
         const double leaves = double(tree_.global_leaves()), depth = double(tree_.global_depth());
-        std::vector<double> energy, per_capsule;
+        std::vector<double> energy, per_capsule;  // per_capsule: every capsule's row, on rank 0
         try {  // the membrane energy at the new positions: an element inverted there is a blow-up
           energy = budget_->row();
           if (capsules_) per_capsule = capsules_->rows(step, ns_.time());
         } catch (const std::runtime_error& e) {
           throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
         }
+        const CapsuleDiagnostics m = !per_capsule.empty() ? CapsuleSet::from_row(per_capsule)  // capsule 0
+                                                          : CapsuleDiagnostics{nan, nan, nan, nan};
         on_root(comm_, [&] {
           std::vector<double> values{double(step), ns_.time(), st.dt, leaves, depth, m.d12, m.d12_bbox, m.area_rel,
                                      m.volume_rel, vmax, double(st.cycles()), wall, double(unconverged_since_row_)};
@@ -234,7 +239,7 @@ class FlowRun {
     progress_.finish();
     if (c.output.cells_csv) write_cells_csv();
     if (capsules_) {
-      capsules_->write_final(out_);
+      capsules_->write_final(out_);  // collective: rank 0 writes
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
         const double n = double(std::max<long>(1, step - first_step));
@@ -322,8 +327,10 @@ class FlowRun {
 
   fs::path checkpoint(long step, double dt) {
     const fs::path file = out_ / numbered("checkpoint", step, "h5");
+    // The capsules' states from their owners (collective), on rank 0.
+    const std::vector<io::ExtraArray> capsule_extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
     with_whole_tree([&](const tree::Tree<D>& t) {
-      std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
+      std::vector<io::ExtraArray> extras = capsule_extras;
       for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
       // The faces the next step starts from, where it reads them (midpoint nodes,
       // carry_faces): without them a restarted run starts from the face mean of the cell
@@ -364,10 +371,8 @@ class FlowRun {
     } else {
       io::write_tree_vtu<D>(out_ / file, tree_, fields);
     }
-    on_root(comm_, [&] {
-      series->add(ns_.time(), file);  // relative to series.pvd, next to it
-      if (capsules_) capsules_->snapshot(out_, step, ns_.time(), *series);
-    });
+    on_root(comm_, [&] { series->add(ns_.time(), file); });  // relative to series.pvd, next to it
+    if (capsules_) capsules_->snapshot(out_, step, ns_.time(), comm_.is_root() ? &*series : nullptr);
   }
 
   void write_cells_csv() {
@@ -430,10 +435,12 @@ void run_case(const RunRequest& req) {
     throw io::CheckpointError(fmt::format("{}: is a directory, not a checkpoint file", req.restart->string()));
   const parallel::Comm comm = parallel::Comm::world();
   check_memory(c, req.max_memory, req.case_file.string(), comm);
-  if (comm.size() > 1 && !c.capsules.empty())
-    throw io::CaseError(fmt::format("{}: {} capsule(s) on {} MPI ranks: capsules run on one rank until they are "
-                                    "distributed (docs/parallel.md); run without mpirun, with OMP_NUM_THREADS for the cores",
-                                    req.case_file.string(), c.capsules.size(), comm.size()));
+  // The cell-centred coupling is kept for comparison, on one rank.
+  for (std::size_t k = 0; k < c.capsules.size(); ++k)
+    if (comm.size() > 1 && !c.capsules[k].staggered)
+      throw io::CaseError(fmt::format("{}: capsule[{}].staggered = false on {} MPI ranks: the cell-centred coupling runs on "
+                                      "one rank only (run without mpirun, or with the default staggered coupling)",
+                                      req.case_file.string(), k, comm.size()));
   // The carried faces survive an adaptation and a restart on one rank only (a distributed
   // adapt renumbers the cells through the partition, and checkpoints of N ranks do not
   // gather the faces): such a run would silently leave one rank's numbers.

@@ -58,6 +58,9 @@ tree::AdaptCounts Adaptation<D>::forced_passes() {
   const tree::AdaptOptions<D> opt = adapt_options(false);
   tree::AdaptCounts total;
   for (int pass = 0; pass < 64; ++pass) {
+    // The bodies' region again: on N ranks each pass repartitions, and a rank then owns
+    // leaves whose bands it did not hear of before.
+    if (pass > 0 && bodies_) bodies_->update_region();
     // An infinite tolerance: only forced refinement (the velocity may be anything).
     const tree::AdaptCounts c = ns_.adapt(1e300, opt);
     total.refined += c.refined;

@@ -3,7 +3,9 @@
 #include "fluid/navier_stokes.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -394,12 +396,59 @@ double NavierStokes<D>::velocity_tolerance(double tolerance, double relative) co
   return std::max(std::min(tolerance, relative * max_velocity_component()), 1e-3 * tolerance);
 }
 
+namespace {
+// A number of the leaf (level, key) that no other leaf, and no value an adaptation's transfer
+// makes from other leaves' numbers (means, prolongations), can equal: 52 bits of a mixed
+// hash in [1, 2). A leaf whose stamp survives an adaptation unchanged is the same leaf.
+double leaf_stamp(int level, tree::Key key) {
+  std::uint64_t h = key * 64 + static_cast<std::uint64_t>(level) + 0x9e3779b97f4a7c15ULL;
+  h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  h = (h ^ (h >> 27)) * 0x94d049bb133111ebULL;
+  h ^= h >> 31;
+  return std::bit_cast<double>(0x3FF0000000000000ULL | (h >> 12));
+}
+}  // namespace
+
+template <int D>
+void NavierStokes<D>::keep_faces_in_fields() {
+  static const char* kAxis[] = {"x", "y", "z"};
+  if (kept_fields_[0] < 0) {  // registered once, on every rank alike; no checkpoint keeps them
+    for (int d = 0; d < D; ++d)
+      kept_fields_[d] = tree_.add_field({.name = fmt::format("uf.kept.{}", kAxis[d]), .saved = false});
+    kept_fields_[D] = tree_.add_field({.name = "uf.kept.stamp", .saved = false});
+  }
+  for_each_leaf_level<D>(tree_, [&](Index c, int l, double) {
+    const tree::Level<D>& lv = tree_.level(l);
+    for (int d = 0; d < D; ++d) tree_.values(kept_fields_[d])[c] = uf_[d][c];  // each leaf's lower faces
+    tree_.values(kept_fields_[D])[c] = leaf_stamp(l, lv.keys[static_cast<std::size_t>(c - lv.base)]);
+  });
+}
+
+template <int D>
+void NavierStokes<D>::carry_faces_in_fields() {
+  face_average_of_velocity(uf_);  // where a face's cells changed
+  const std::span<const double> stamp = tree_.values(kept_fields_[D]);
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
+    auto same = [&](Index c) {  // the same leaf as before the adapt
+      return c < lv.active_end() && lv.is_leaf(c) &&
+             stamp[c] == leaf_stamp(tree_.level_of(c), lv.keys[static_cast<std::size_t>(c - lv.base)]);
+    };
+    if (same(lo) && same(hi)) uf_[d][hi] = tree_.values(kept_fields_[d])[hi];
+  });
+  restrict_faces<D>(tree_, uf_);
+  tree_.exchange_all(components<D>(uf_));
+  faces_carried_ = true;
+}
+
 template <int D>
 tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D> opt, double relative) {
   tolerance = velocity_tolerance(tolerance, relative);
   for (int d = 0; d < D; ++d) opt.criteria.push_back({u_[d], tolerance});
   // The projected faces survive where the adaptation leaves the cells on both sides of a
-  // face as they were (one rank: a distributed adapt renumbers through the partition).
+  // face as they were. On N ranks a distributed adapt renumbers and migrates the leaves, so
+  // each leaf's lower faces travel as tree fields with a stamp of the leaf.
+  const bool keep_distributed = (faces_current_ || faces_carried_) && tree_.distributed();
+  if (keep_distributed) keep_faces_in_fields();
   const bool keep = (faces_current_ || faces_carried_) && !tree_.distributed();
   if (keep) {
     kept_faces_ = uf_;
@@ -414,10 +463,13 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
   if (keep && counts.refined == 0 && counts.coarsened == 0 && tree_.num_cells() == cells_before) {
     return counts;  // no rebuild: the same cells, the faces still the projected ones
   }
+  // N ranks: no rank refined or merged, so no rank rebuilt (DistributedForest::adapt).
+  if (keep_distributed && tree_.global_sum(std::int64_t{counts.refined + counts.coarsened}) == 0) return counts;
   resize_scratch();
   faces_current_ = false;
   faces_carried_ = false;
   if (keep) carry_faces_through_adapt();
+  if (keep_distributed) carry_faces_in_fields();
   return counts;
 }
 

@@ -117,7 +117,8 @@ class NavierStokes {
   // velocity on every face whose two cells are the same leaves as before (a membrane band
   // at the max level keeps all of its faces), and the face mean of the cell velocity on
   // the others. Then the faces around a membrane are still discretely divergence-free
-  // (issue 17: the midpoint node scheme's u^n after an adaptation). One rank only.
+  // (issue 17: the midpoint node scheme's u^n after an adaptation). On N ranks the same
+  // faces, carried through the migration.
   bool face_velocity_carried() const { return faces_carried_; }
   // The face velocity for a checkpoint (issue 17: a restarted run with the midpoint node
   // scheme or carry_faces must start from the same u^n faces as the uninterrupted one):
@@ -196,6 +197,11 @@ class NavierStokes {
   int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);
   void carry_faces_through_adapt();  // uf_ from kept_faces_ after a rebuild
+  // N ranks: each leaf's lower faces and a stamp of the leaf into tree fields before a
+  // distributed adapt (they migrate with the leaves), and back into uf_ after it on the faces
+  // whose two cells kept their stamps.
+  void keep_faces_in_fields();
+  void carry_faces_in_fields();
   // g = cell mean of alpha (force - grad p); u += dt g unless only_g.
   void centred_gradient(double dt, bool only_g = false);
   void evaluate_force();
@@ -236,6 +242,11 @@ class NavierStokes {
   bool faces_carried_ = false;                  // face_velocity_carried()
   FaceField<D> kept_faces_;                     // adapt(): uf_ of the tree before
   std::vector<std::uint8_t> old_leaf_;          // adapt(): whether each old cell was a leaf
+  std::array<tree::FieldId, D + 1> kept_fields_ = [] {  // N ranks: the faces and the stamp
+    std::array<tree::FieldId, D + 1> f;
+    f.fill(-1);
+    return f;
+  }();
 };
 
 extern template class NavierStokes<2>;

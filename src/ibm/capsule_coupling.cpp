@@ -80,9 +80,22 @@ int CapsuleCoupling::add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd
   if (x.cols() != model.mesh().node_count())
     throw std::invalid_argument(fmt::format("ibm: capsule positions have {} nodes, its mesh {}", x.cols(),
                                             model.mesh().node_count()));
-  capsules_.push_back({.model = std::move(model), .x = std::move(x), .kernels = kernels});
-  capsules_.back().x_at_adapt = capsules_.back().x;
+  // The stiffest membrane sets the stability limit; every rank keeps every capsule's modulus.
+  moduli_.push_back(std::visit(
+      [](const auto& law) {
+        if constexpr (requires { law.c; }) return law.gs * std::max(1.0, (1.0 + 2.0 * law.c) / 3.0);
+        else return law.gs;
+      },
+      model.law()));
+  kernels_.push_back(kernels);
+  capsules_.push_back(std::make_unique<Capsule>(Capsule{.model = std::move(model), .x = std::move(x), .kernels = kernels}));
+  capsules_.back()->x_at_adapt = capsules_.back()->x;
   return num_capsules() - 1;
+}
+
+Capsule* CapsuleCoupling::owned(int i) const {
+  if (!owns(i)) throw std::logic_error(fmt::format("ibm: capsule {} is not held by this rank", i));
+  return capsules_[static_cast<std::size_t>(i)].get();
 }
 
 double CapsuleCoupling::stability_limit() const {
@@ -90,19 +103,13 @@ double CapsuleCoupling::stability_limit() const {
   const double mu = o.viscosity > 0.0 ? o.viscosity : 1.0 / o.Re;
   const double dx = ns_.tree().cell_size(ns_.tree().max_level());
   double g = 0.0;  // the stiffest capsule's effective modulus
-  for (const Capsule& c : capsules_)
-    g = std::max(g, std::visit(
-                        [](const auto& law) {
-                          if constexpr (requires { law.c; }) return law.gs * std::max(1.0, (1.0 + 2.0 * law.c) / 3.0);
-                          else return law.gs;
-                        },
-                        c.model.law()));
+  for (const double m : moduli_) g = std::max(g, m);
   if (!(g > 0.0)) return 0.0;
   return std::min(kInertialLimit * std::sqrt(o.density * dx * dx * dx / g), kViscousLimit * mu * dx / g);
 }
 
 double CapsuleCoupling::membrane_energy(int k) const {
-  const Capsule& c = capsules_.at(static_cast<std::size_t>(k));
+  const Capsule& c = capsule(k);
   try {
     return c.model.energy(c.x);
   } catch (const membrane::ElementError& e) {
@@ -111,7 +118,7 @@ double CapsuleCoupling::membrane_energy(int k) const {
 }
 
 double CapsuleCoupling::node_power(int k) const {
-  const Capsule& c = capsules_.at(static_cast<std::size_t>(k));
+  const Capsule& c = capsule(k);
   if (c.forces.cols() != c.x.cols() || c.velocity.cols() != c.x.cols()) return 0.0;
   return c.forces.cwiseProduct(c.velocity).sum();
 }
@@ -159,58 +166,104 @@ void CapsuleCoupling::fail_stencil(int step, int k, const StencilError& e) const
 
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
   int r = 0;
-  for (const Capsule& c : capsules_) r = std::max(r, c.tags(b));
+  if (distributed()) {
+    for (const MembraneTags& tags : bands_) r = std::max(r, tags(b));
+    return r;
+  }
+  for (const auto& c : capsules_) r = std::max(r, c->tags(b));
   return r;
+}
+
+int CapsuleCoupling::band(int k) const {
+  const KernelChoice& kc = kernels_[static_cast<std::size_t>(k)];
+  return band_cells(kc.spread, kc.interpolate, margin_, kc.staggered && kc.divergence_free);
 }
 
 void CapsuleCoupling::update_region() {
   const tree::Tree<3>& t = ns_.tree();
-  for (Capsule& c : capsules_)
-    c.tags.build(t.options(), t.max_level(), band_cells(c.kernels.spread, c.kernels.interpolate, margin_,
-                                                         c.kernels.staggered && c.kernels.divergence_free), c.x);
+  if (!distributed()) {
+    for (int k = 0; k < num_capsules(); ++k) capsule(k).tags.build(t.options(), t.max_level(), band(k), capsule(k).x);
+    return;
+  }
+  // The bands of every capsule near this rank's cells, from the nodes whose band reaches them.
+  const RoutedNodes nodes = route([](const Capsule& c) -> const Eigen::Matrix3Xd& { return c.x; }, false,
+                                  [this](int k) { return band(k) + 1; });
+  bands_.assign(nodes.ranges.size(), MembraneTags{});
+  for (std::size_t r = 0; r < nodes.ranges.size(); ++r) {
+    const RoutedNodes::Range& range = nodes.ranges[r];
+    bands_[r].build(t.options(), t.max_level(), band(range.capsule),
+                    nodes.x.middleCols(range.begin, range.end - range.begin));
+  }
 }
 
 bool CapsuleCoupling::stencils_ready() const {
   const tree::Tree<3>& t = ns_.tree();
-  return std::all_of(capsules_.begin(), capsules_.end(), [&](const Capsule& c) {
-    const bool df = c.kernels.divergence_free;
-    return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered, df) &&
-           node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered, df);
-  });
+  if (!distributed())
+    return std::all_of(capsules_.begin(), capsules_.end(), [&](const auto& p) {
+      const Capsule& c = *p;
+      const bool df = c.kernels.divergence_free;
+      return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered, df) &&
+             node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered, df);
+    });
+  // Each rank checks the stencil cells it owns of the nodes that reach it.
+  const RoutedNodes nodes = route([](const Capsule& c) -> const Eigen::Matrix3Xd& { return c.x; }, false,
+                                  [this](int k) { return stencil_reach(k); });
+  const OwnedPositions own = owned_positions();
+  const int level = t.max_level();
+  const double h = t.cell_size(level);
+  bool ready = true;
+  Index cells[kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth];
+  for (const RoutedNodes::Range& range : nodes.ranges) {
+    const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
+    for (const KernelKind kind : {kc.spread, kc.interpolate})
+      with_face_kernel(kind, kc.divergence_free, [&]<Kernel K>(K) {
+        for (Eigen::Index i = range.begin; ready && i < range.end; ++i)
+          for (int axis = 0; axis < 3; ++axis) {
+            const BoxStencil st = face_stencil<K>(t.options(), h, &nodes.x(0, i), axis);
+            if (find_owned_box(t, level, st.first, st.n, own, cells) >= 0) ready = false;
+          }
+      });
+  }
+  return !any_rank(!ready);
 }
 
 bool CapsuleCoupling::may_wait(int max_interval) const {
   if (since_adapt_ >= max_interval) return false;
   double moved = 0.0;
-  for (const Capsule& c : capsules_)
-    if (c.x_at_adapt.cols() == c.x.cols()) moved = std::max(moved, (c.x - c.x_at_adapt).colwise().norm().maxCoeff());
+  for (const auto& p : capsules_)
+    if (p && p->x_at_adapt.cols() == p->x.cols())
+      moved = std::max(moved, (p->x - p->x_at_adapt).colwise().norm().maxCoeff());
   // The band reaches `margin` max-level cells beyond the kernels; at the mean speed since
   // the last adaptation the nodes must stay within half of that until the forced one.
   const double projected = moved * static_cast<double>(max_interval) / static_cast<double>(since_adapt_);
-  return !(projected > 0.5 * margin_ * ns_.tree().cell_size(ns_.tree().max_level()));
+  return !any_rank(projected > 0.5 * margin_ * ns_.tree().cell_size(ns_.tree().max_level()));
 }
 
 bool CapsuleCoupling::must_adapt() const {
   const double reach = margin_ * ns_.tree().cell_size(ns_.tree().max_level());
-  for (const Capsule& c : capsules_) {
-    if (c.x_at_adapt.cols() != c.x.cols()) continue;
+  bool must = false;
+  for (const auto& p : capsules_) {
+    if (!p || p->x_at_adapt.cols() != p->x.cols()) continue;
+    const Capsule& c = *p;
     // Per axis: the band is the union of the stencils' boxes, `margin` cells wider.
     double moved = (c.x - c.x_at_adapt).cwiseAbs().maxCoeff();
     if (c.velocity.cols() == c.x.cols()) moved += last_dt_ * c.velocity.cwiseAbs().maxCoeff();
-    if (moved > reach) return true;
+    must = must || moved > reach;
   }
-  return false;
+  return any_rank(must);
 }
 
 void CapsuleCoupling::adapted() {
-  for (Capsule& c : capsules_) c.x_at_adapt = c.x;
+  for (auto& p : capsules_)
+    if (p) p->x_at_adapt = p->x;
   since_adapt_ = 0;
 }
 
 void CapsuleCoupling::compute_forces(int step) {
   const auto t0 = Clock::now();
   for (int k = 0; k < num_capsules(); ++k) {
-    Capsule& c = capsules_[k];
+    if (!owns(k)) continue;
+    Capsule& c = capsule(k);
     try {
       c.energy = c.model.compute_forces(stage_positions(c), c.forces);
     } catch (const membrane::ElementError& e) {
@@ -228,7 +281,7 @@ void CapsuleCoupling::spread_forces(int step) {
   const tree::Tree<3>& t = ns_.tree();
   any_cells_ = any_faces_ = false;
   for (int k = 0; k < num_capsules(); ++k) {
-    Capsule& c = capsules_[k];
+    Capsule& c = capsule(k);
     bool& started = c.kernels.staggered ? any_faces_ : any_cells_;
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
@@ -249,14 +302,12 @@ void CapsuleCoupling::spread_forces(int step) {
   times_.spreading += seconds_since(t0);
 }
 
-void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
+void CapsuleCoupling::interpolate_velocities(int step) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
-  const auto& o = t.options();
-  motion_.resize(capsules_.size());
   for (int k = 0; k < num_capsules(); ++k) {
-    Capsule& c = capsules_[k];
+    Capsule& c = capsule(k);
     std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
@@ -265,11 +316,22 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
     }
+  }
+  times_.interpolation += seconds_since(t0);
+}
+
+void CapsuleCoupling::advance_nodes(int step, double dt, double previous_dt) {
+  const auto t0 = Clock::now();
+  const auto& o = ns_.tree().options();
+  motion_.resize(capsules_.size());
+  for (int k = 0; k < num_capsules(); ++k) {
+    if (!owns(k)) continue;
+    Capsule& c = capsule(k);
     Eigen::Index bad = 0;
     if (!all_finite(c.velocity, bad))
       fail(step, fmt::format("capsule {}: the velocity of node {} is not finite", k, bad));
     // AB2 with a variable step (Euler on the first step, or without V^(n-1)).
-    Eigen::Matrix3Xd& m = motion_[k];
+    Eigen::Matrix3Xd& m = motion_[static_cast<std::size_t>(k)];
     if (scheme_ == NodeScheme::midpoint) {
       m = 0.5 * (c.start_velocity + c.velocity);
     } else if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
@@ -290,9 +352,11 @@ void CapsuleCoupling::move_nodes(int step, double dt, double previous_dt) {
       }
   }
   for (int k = 0; k < num_capsules(); ++k) {
-    Capsule& c = capsules_[k];
-    c.x += dt * motion_[k];
-    c.work += dt * c.forces.cwiseProduct(motion_[k]).sum();
+    if (!owns(k)) continue;
+    Capsule& c = capsule(k);
+    const Eigen::Matrix3Xd& m = motion_[static_cast<std::size_t>(k)];
+    c.x += dt * m;
+    c.work += dt * c.forces.cwiseProduct(m).sum();
   }
   times_.interpolation += seconds_since(t0);
 }
@@ -315,7 +379,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
   }
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
   for (int k = 0; k < num_capsules(); ++k) {
-    Capsule& c = capsules_[k];
+    Capsule& c = capsule(k);
     c.x_mid = c.x;
     if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
     try {
@@ -330,6 +394,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
 
 CouplingStep CapsuleCoupling::step() {
   const int step = static_cast<int>(steps_ + 1);
+  if (distributed()) return distributed_step(step);
   CouplingStep out;
   if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);
   compute_forces(step);
@@ -347,7 +412,8 @@ CouplingStep CapsuleCoupling::step() {
   last_dt_ = out.fluid.dt;
   times_.fluid += seconds_since(t0) - face_seconds_;
   times_.spreading += face_seconds_;
-  move_nodes(step, out.fluid.dt, previous_dt);
+  interpolate_velocities(step);
+  advance_nodes(step, out.fluid.dt, previous_dt);
   ++steps_;
   ++since_adapt_;
   return out;

@@ -39,6 +39,8 @@
 // std::runtime_error naming the step, the time and the likely cause; the node positions
 // then stay those of the last good step.
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -47,10 +49,12 @@
 #include "fluid/adaptation.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "ibm/kernels.hpp"
+#include "ibm/node_routing.hpp"
 #include "ibm/refinement_tags.hpp"
 #include "ibm/spread.hpp"
 #include "ibm/stencil.hpp"
 #include "membrane/forces.hpp"
+#include "tree/distributed_forest.hpp"
 
 namespace capsflow::ibm {
 
@@ -125,8 +129,31 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // the coupling owns the flow's face force, so other forces go through here.
   void set_background_force(fluid::NavierStokes<3>::FaceForce f) { background_ = std::move(f); }
 
-  // Adds a capsule at positions x (3 x the model's nodes); returns its index.
+  // Adds a capsule at positions x (3 x the model's nodes); returns its index (its id).
   int add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd x, KernelChoice kernels = {});
+
+  // N ranks (docs/parallel.md, "Capsules"). Every rank adds every capsule; once the tree is
+  // distributed, distribute() keeps on each rank the capsules it owns (the owner of the
+  // max-level cell holding the mean of its nodes) and drops the others. From then on a
+  // capsule follows its centroid from rank to rank (its state moves, its reference membrane
+  // is rebuilt there by `factory`), its nodes go to the owners of their stencils' cells for
+  // spreading and interpolation (node_routing.hpp), and every collective decision (the band,
+  // when to adapt, failures) is reduced over the ranks. The numbers are one rank's to the
+  // last bit. On one rank (a tree without distribution) nothing changes. Collective.
+  using ModelFactory = std::function<membrane::MembraneModel(int capsule)>;
+  void distribute(ModelFactory factory);
+  [[nodiscard]] bool distributed() const { return forest_ != nullptr; }
+  // Whether this rank holds capsule k's state (every capsule on one rank).
+  [[nodiscard]] bool owns(int k) const {
+    return k >= 0 && k < num_capsules() && capsules_[static_cast<std::size_t>(k)] != nullptr;
+  }
+  // What a checkpoint keeps of a capsule, every capsule's on rank 0 (in id order; empty on
+  // the others). Collective.
+  struct SavedState {
+    Eigen::Matrix3Xd x, x_at_adapt, velocity;  // velocity: empty before the first step
+    double work = 0.0;
+  };
+  [[nodiscard]] std::vector<SavedState> gather_on_root() const;
 
   // One coupled step (stages 1-5); the caller's fluid::Adaptation adapts after it.
   CouplingStep step();
@@ -156,8 +183,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // the same kernel for both stages on faces it equals the spread force's power against the
   // face velocity, sum_faces f uf dx^3 (spreading is then the adjoint of interpolation).
   [[nodiscard]] double node_power(int k) const;
-  [[nodiscard]] const Capsule& capsule(int i) const { return capsules_.at(i); }
-  [[nodiscard]] Capsule& capsule(int i) { return capsules_.at(i); }
+  // Capsule i's state; this rank must own it (owns(i)).
+  [[nodiscard]] const Capsule& capsule(int i) const { return *owned(i); }
+  [[nodiscard]] Capsule& capsule(int i) { return *owned(i); }
   [[nodiscard]] std::int64_t steps() const { return steps_; }
   // The steps taken so far (errors name step steps() + 1): a restarted run sets it to its
   // checkpoint's step.
@@ -209,10 +237,44 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // keys that change it: one message a user can act on, with no internal name in it.
   [[noreturn]] void fail(int step, const std::string& what, Cause cause = Cause::instability) const;
   [[noreturn]] void fail_stencil(int step, int k, const StencilError& e) const;
+  [[nodiscard]] Capsule* owned(int i) const;
+  // The nodes' velocities from uf (interpolate_faces per owned capsule), then advance_nodes.
+  void interpolate_velocities(int step);
+  // X += dt (the scheme's motion) for every owned capsule, each new position checked first.
+  void advance_nodes(int step, double dt, double previous_dt);
+
+  // N ranks (capsule_distribution.cpp).
+  CouplingStep distributed_step(int step);
+  void migrate();  // owned capsules whose centroid left this rank's cells go to its owner
+  [[nodiscard]] int owner_of(const Eigen::Matrix3Xd& x) const;
+  [[nodiscard]] OwnedPositions owned_positions() const;
+  // Every owned capsule's nodes at `at(c)` (with `with_forces` their forces) to the ranks
+  // within `reach(k)` max-level cells; the result is what this rank received. Collective.
+  [[nodiscard]] RoutedNodes route(const std::function<const Eigen::Matrix3Xd&(const Capsule&)>& at, bool with_forces,
+                                  const std::function<int(int)>& reach) const;
+  [[nodiscard]] int stencil_reach(int k) const;
+  [[nodiscard]] int band(int k) const;
+  void spread_routed(int step);
+  // The velocities from uf at the routed nodes, completed on the owners into velocity_of(c)
+  // (taken at stage_positions). Collective.
+  void interpolate_routed(int step, const fluid::FaceField<3>& uf,
+                          const std::function<Eigen::Matrix3Xd&(Capsule&)>& velocity_of);
+  // all_or_none over the run's ranks (one rank: f runs as it is).
+  void collectively(const std::function<void()>& f) const;
+  [[nodiscard]] bool any_rank(bool local) const;
 
   fluid::NavierStokes<3>& ns_;
   int margin_;
-  std::vector<Capsule> capsules_;
+  std::vector<std::unique_ptr<Capsule>> capsules_;  // by id; null where another rank owns it
+  std::vector<KernelChoice> kernels_;              // by id, every capsule
+  std::vector<double> moduli_;                     // by id: the stability limit's effective modulus
+  // N ranks: the plan of the distributed tree (nullptr on one rank), the capsules' rebuilder,
+  // the nodes routed for this step's stages, and the bands of every capsule near this rank's
+  // cells (built from the nodes routed at the last update_region).
+  const tree::DistributedForest<3>* forest_ = nullptr;
+  ModelFactory factory_;
+  RoutedNodes routed_;
+  std::vector<MembraneTags> bands_;
   CellVector force_;
   fluid::FaceField<3> face_force_;
   bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled

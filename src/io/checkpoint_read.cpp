@@ -139,7 +139,8 @@ template <int D>
 void check_field_names(const H5Io& io, hid_t fields, const tree::Tree<D>& tree) {
   const std::vector<std::string> in_file = io.members(fields, "/fields");
   std::vector<std::string> in_run;
-  for (tree::FieldId f = 0; f < tree.num_fields(); ++f) in_run.push_back(tree.field_spec(f).name);
+  for (tree::FieldId f = 0; f < tree.num_fields(); ++f)
+    if (tree.field_spec(f).saved) in_run.push_back(tree.field_spec(f).name);
   std::sort(in_run.begin(), in_run.end());
   if (in_file != in_run)
     io.fail(fmt::format("the fields differ: the checkpoint has [{}], this run registers [{}]",
@@ -151,6 +152,7 @@ void check_field_names(const H5Io& io, hid_t fields, const tree::Tree<D>& tree) 
 template <int D>
 void check_fields(const H5Io& io, hid_t fields, const tree::Tree<D>& tree, const LeafSet& set) {
   for (tree::FieldId f = 0; f < tree.num_fields(); ++f) {
+    if (!tree.field_spec(f).saved) continue;
     const std::string path = "/fields/" + tree.field_spec(f).name;
     const auto a = io.read<double>(fields, tree.field_spec(f).name, H5T_NATIVE_DOUBLE, path);
     if (a.values.size() != set.size)
@@ -172,6 +174,7 @@ void restore_fields(const H5Io& io, hid_t fields, tree::Tree<D>& tree, const Lea
     for (std::size_t i = 0; i < cells[l].size(); ++i) where.emplace_back(cells[l][i].second, set.levels[l][i].second);
   }
   for (tree::FieldId f = 0; f < tree.num_fields(); ++f) {
+    if (!tree.field_spec(f).saved) continue;
     const std::string& name = tree.field_spec(f).name;
     const auto a = io.read<double>(fields, name, H5T_NATIVE_DOUBLE, "/fields/" + name);
     if (a.values.size() != set.size)

@@ -29,7 +29,12 @@ template <int D>
 void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tree,
                       const CheckpointScalars& scalars, std::span<const ExtraArray> extras) {
   std::vector<std::string> field_names, extra_names;
-  for (tree::FieldId f = 0; f < tree.num_fields(); ++f) field_names.push_back(tree.field_spec(f).name);
+  std::vector<tree::FieldId> saved;  // fields a checkpoint keeps
+  for (tree::FieldId f = 0; f < tree.num_fields(); ++f)
+    if (tree.field_spec(f).saved) {
+      field_names.push_back(tree.field_spec(f).name);
+      saved.push_back(f);
+    }
   for (const ExtraArray& e : extras) {
     extra_names.push_back(e.name);
     std::size_t n = 1;
@@ -88,10 +93,10 @@ void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tr
 
     const detail::Handle f = io.group(root, "fields", true);
     std::vector<double> values(leaves.size());
-    for (tree::FieldId id = 0; id < tree.num_fields(); ++id) {
-      const std::span<const double> v = tree.values(id);
+    for (std::size_t k = 0; k < saved.size(); ++k) {
+      const std::span<const double> v = tree.values(saved[k]);
       for (std::size_t i = 0; i < leaves.size(); ++i) values[i] = v[leaves[i]];
-      io.write(f.get(), field_names[static_cast<std::size_t>(id)], H5T_NATIVE_DOUBLE, {n}, values.data());
+      io.write(f.get(), field_names[k], H5T_NATIVE_DOUBLE, {n}, values.data());
     }
 
     const detail::Handle e = io.group(root, "extras", true);

@@ -599,6 +599,13 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
     }
     if (parallel::global_max(comm_, changed) == 0) break;
   }
+  // Nothing to refine or merge on any rank: the local trees stay as they are (a repartition
+  // by unchanged weights would rebuild the same ones), and so do the values that live outside
+  // the fields (the flow's projected faces).
+  std::int64_t wishes = 0;
+  for (const Index c : owned_leaves) wishes += wish[static_cast<std::size_t>(c)] != 0;
+  if (parallel::global_sum(comm_, wishes) == 0)
+    return {.refined = 0, .coarsened = 0, .leaves = static_cast<Index>(t.owned_leaves().size()), .cells = t.num_cells()};
 
   // The new leaves of this rank's range, in curve order, with every field's values.
   const int fields = t.num_fields();

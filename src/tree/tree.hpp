@@ -61,6 +61,9 @@ struct FieldSpec {
   std::string name;
   Prolongation prolongation = Prolongation::linear;
   BoundaryConditions<D> bc = BoundaryConditions<D>::all(BcKind::neumann);
+  // false: state of a stage that no checkpoint keeps (it is rebuilt when needed): the
+  // checkpoint writer and reader leave it out.
+  bool saved = true;
 };
 
 using FieldId = int;

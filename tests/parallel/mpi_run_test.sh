@@ -9,8 +9,10 @@
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
 #  3. carried faces (fluid.carry_faces) on 2 ranks: uniform as one rank, adaptive refused;
 #     a warning (unconverged solves) printed once, not once per rank;
-#     a uniform grid too big for this node, and a case with capsules, on 2 ranks are refused:
-#     exit 2, one capsflow line, no output folder (under Open MPI's mpirun -q, nothing else).
+#     a uniform grid too big for this node, and a capsule with the cell-centred coupling, on 2
+#     ranks are refused: exit 2, one capsflow line, no output folder (under mpirun -q, nothing else);
+#  4. capsules on 2-4 ranks: the quick relaxation and the seed case's scheme (midpoint nodes,
+#     adaptations in time) write one rank's diagnostics, capsule rows and final nodes.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -47,7 +49,7 @@ echo "3 ranks: every .pvtu snapshot holds one rank's cells and values"
 # same diagnostics (every column but the wall time) and, when written, the same final cells.
 matches_one_rank() {
   local label=$1 n=$2; shift 2
-  "$capsflow" "$@" --out "$dir/$label.1" || fail "$label on one rank: exit $?"
+  [ -e "$dir/$label.1/diagnostics.csv" ] || "$capsflow" "$@" --out "$dir/$label.1" || fail "$label on one rank: exit $?"
   "$mpiexec" -n "$n" --oversubscribe "$capsflow" "$@" --out "$dir/$label.$n" 2> "$dir/err" ||
     fail "$label on $n ranks: exit $? $(cat "$dir/err")"
   diff <(no_wall "$dir/$label.1/diagnostics.csv") <(no_wall "$dir/$label.$n/diagnostics.csv") > /dev/null ||
@@ -98,14 +100,33 @@ echo "2 ranks: one warning line"
 # A uniform grid no node here can hold its share of: refused by every rank alike.
 refused huge-grid 'memory estimate .* on a node holding 2 of the 2 ranks' \
   run "$cases/duct_3d.toml" --adapt off --set adapt.max_level=10
-refused capsules 'capsule' run "$cases/relaxation_quick.toml"
+refused cell-coupling 'staggered = false' run "$cases/relaxation_quick.toml" --set 'capsule[0].staggered=false'
 
 # With Open MPI's mpirun -q (README), a refusal prints capsflow's one line and nothing else.
 if "$mpiexec" --version 2>&1 | grep -qi "open-\?mpi\|openrte"; then
-  "$mpiexec" -q -n 2 --oversubscribe "$capsflow" run "$cases/relaxation_quick.toml" --quiet --out "$dir/quiet" > "$dir/all" 2>&1
+  "$mpiexec" -q -n 2 --oversubscribe "$capsflow" run "$cases/relaxation_quick.toml" --set 'capsule[0].staggered=false' \
+    --quiet --out "$dir/quiet" > "$dir/all" 2>&1
   status=$?
-  if [ "$status" -ne 2 ] || [ "$(wc -l < "$dir/all")" -ne 1 ] || ! grep -q '^capsflow:.*capsule' "$dir/all"; then
+  if [ "$status" -ne 2 ] || [ "$(wc -l < "$dir/all")" -ne 1 ] || ! grep -q '^capsflow:.*staggered' "$dir/all"; then
     fail "mpirun -q: expected exit 2 and capsflow's one line alone; got $status: $(cat "$dir/all")"
   fi
   echo "mpirun -q: one line"
 fi
+
+# Capsules on N ranks (issue 27): each capsule on the rank of its centroid, its nodes routed
+# to the owners of their stencils' cells; every diagnostics column but the wall time, every
+# capsule row and the final nodes to the last bit of one rank's.
+capsule_matches_one_rank() {
+  local label=$1 n=$2; shift 2
+  matches_one_rank "$label" "$n" "$@"
+  cmp -s "$dir/$label.1/capsules.csv" "$dir/$label.$n/capsules.csv" || fail "$label on $n ranks: capsules.csv differs"
+  cmp -s "$dir/$label.1/membrane_final.csv" "$dir/$label.$n/membrane_final.csv" ||
+    fail "$label on $n ranks: membrane_final.csv differs"
+}
+quick=(run "$cases/relaxation_quick.toml" --set adapt.max_level=4 --set 'capsule[0].nodes=642' --set time.t_end=0.02
+       --set output.diagnostics_interval=1 --set output.vtu=false --quiet)
+for n in 2 3 4; do capsule_matches_one_rank "quick-relaxation" "$n" "${quick[@]}"; done
+# The seed case's scheme (midpoint nodes, adaptations in time, faces carried through them).
+seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
+      --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)
+capsule_matches_one_rank "seed-scheme" 3 "${seed[@]}"

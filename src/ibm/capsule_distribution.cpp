@@ -1,0 +1,288 @@
+// The capsule coupling on N ranks (capsule_coupling.hpp, distribute()): ownership and its
+// migration, the routed stages of the step, and the reductions of its collective decisions.
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "ibm/capsule_coupling.hpp"
+#include "parallel/all_or_none.hpp"
+#include "parallel/all_to_all.hpp"
+
+namespace capsflow::ibm {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+double value(std::uint64_t w) { return std::bit_cast<double>(w); }
+
+void push_matrix(std::vector<std::uint64_t>& w, const Eigen::Matrix3Xd& m) {
+  for (Eigen::Index i = 0; i < m.size(); ++i) w.push_back(bits(m.data()[i]));
+}
+
+const std::uint64_t* pop_matrix(const std::uint64_t* w, Eigen::Matrix3Xd& m, Eigen::Index nodes) {
+  m.resize(3, nodes);
+  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = value(*w++);
+  return w;
+}
+
+}  // namespace
+
+void CapsuleCoupling::collectively(const std::function<void()>& f) const {
+  if (!distributed()) {
+    f();
+    return;
+  }
+  parallel::all_or_none(forest_->comm(), f);
+}
+
+bool CapsuleCoupling::any_rank(bool local) const {
+  if (!distributed()) return local;
+  return ns_.tree().global_max(std::int64_t{local ? 1 : 0}) != 0;
+}
+
+OwnedPositions CapsuleCoupling::owned_positions() const {
+  if (!distributed()) return {};
+  const int r = forest_->comm().rank();
+  return {forest_->partition().split(r), forest_->partition().split(r + 1)};
+}
+
+int CapsuleCoupling::owner_of(const Eigen::Matrix3Xd& x) const {
+  const tree::TreeOptions<3>& o = ns_.tree().options();
+  const int level = o.max_level;
+  const double h = ns_.tree().cell_size(level);
+  const Eigen::Vector3d centre = x.rowwise().mean();
+  tree::Coords<3> c{};
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t extent = std::int64_t{o.roots[d]} << level;
+    auto i = static_cast<std::int64_t>(std::floor((centre[d] - o.origin[d]) / h));
+    i = o.periodic[d] ? ((i % extent) + extent) % extent : std::clamp<std::int64_t>(i, 0, extent - 1);
+    c[d] = static_cast<std::int32_t>(i);
+  }
+  return forest_->partition().owner(tree::curve_position<3>(level, tree::morton_encode<3>(c), level));
+}
+
+void CapsuleCoupling::distribute(ModelFactory factory) {
+  factory_ = std::move(factory);
+  forest_ = dynamic_cast<const tree::DistributedForest<3>*>(ns_.tree().distribution());
+  if (!forest_) return;
+  // Every rank holds every capsule here (they were added, or restored, on all): each keeps its own.
+  const int me = forest_->comm().rank();
+  for (auto& p : capsules_)
+    if (p && owner_of(p->x) != me) p.reset();
+}
+
+void CapsuleCoupling::migrate() {
+  const parallel::Comm& comm = forest_->comm();
+  std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm.size()));
+  for (int k = 0; k < num_capsules(); ++k) {
+    if (!owns(k)) continue;
+    const Capsule& c = capsule(k);
+    const int q = owner_of(c.x);
+    if (q == comm.rank()) continue;
+    // The state a step reads from the last one; forces, X* and the start velocity are recomputed.
+    auto& w = send[static_cast<std::size_t>(q)];
+    const bool has_velocity = c.velocity.cols() == c.x.cols();
+    w.insert(w.end(), {static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(c.x.cols()), has_velocity ? 1u : 0u});
+    push_matrix(w, c.x);
+    push_matrix(w, c.x_at_adapt);
+    if (has_velocity) push_matrix(w, c.velocity);
+    w.insert(w.end(), {bits(c.work), bits(c.energy)});
+    capsules_[static_cast<std::size_t>(k)].reset();
+  }
+  const auto received = parallel::all_to_all(comm, send);
+  for (const auto& w : received)
+    for (const std::uint64_t* p = w.data(); p < w.data() + w.size();) {
+      const auto k = static_cast<int>(*p++);
+      const auto nodes = static_cast<Eigen::Index>(*p++);
+      const bool has_velocity = *p++ != 0;
+      auto c = std::make_unique<Capsule>(Capsule{.model = factory_(k), .kernels = kernels_[static_cast<std::size_t>(k)]});
+      p = pop_matrix(p, c->x, nodes);
+      p = pop_matrix(p, c->x_at_adapt, nodes);
+      if (has_velocity) p = pop_matrix(p, c->velocity, nodes);
+      c->work = value(*p++);
+      c->energy = value(*p++);
+      capsules_[static_cast<std::size_t>(k)] = std::move(c);
+    }
+}
+
+int CapsuleCoupling::stencil_reach(int k) const {
+  // A face stencil of support W (W + 1 along its axis for the divergence-free form) lies
+  // within W/2 + 1 cells of the cell holding the node; one more for safety.
+  const KernelChoice& kc = kernels_[static_cast<std::size_t>(k)];
+  const bool df = kc.staggered && kc.divergence_free;
+  return std::max(support_of(kc.spread, df), support_of(kc.interpolate, df)) / 2 + 2;
+}
+
+RoutedNodes CapsuleCoupling::route(const std::function<const Eigen::Matrix3Xd&(const Capsule&)>& at, bool with_forces,
+                                   const std::function<int(int)>& reach) const {
+  std::vector<OutgoingNodes> out;
+  for (int k = 0; k < num_capsules(); ++k)
+    if (owns(k)) out.push_back({k, &at(capsule(k)), with_forces ? &capsule(k).forces : nullptr, reach(k)});
+  const tree::Tree<3>& t = ns_.tree();
+  return route_nodes(forest_->comm(), forest_->partition(), t.options(), t.max_level(), out);
+}
+
+void CapsuleCoupling::spread_routed(int step) {
+  const tree::Tree<3>& t = ns_.tree();
+  const OwnedPositions own = owned_positions();
+  any_cells_ = any_faces_ = false;
+  // Capsules ascending, nodes ascending within each: the one-rank order of every face's sum.
+  for (const RoutedNodes::Range& range : routed_.ranges) {
+    const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
+    const Eigen::Index n = range.end - range.begin;
+    const Eigen::Matrix3Xd x = routed_.x.middleCols(range.begin, n), f = routed_.f.middleCols(range.begin, n);
+    bool& started = kc.staggered ? any_faces_ : any_cells_;
+    const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
+    try {
+      if (kc.staggered) spread_faces(kc.spread, kc.divergence_free, t, x, f, face_force_, workspace_, mode, own);
+      else spread(kc.spread, t, x, f, force_, workspace_, mode, own);
+    } catch (const StencilError& e) {  // named by the node's index in its capsule
+      StencilError::Where w = e.where();
+      w.node = routed_.node[static_cast<std::size_t>(range.begin + w.node)];
+      fail_stencil(step, range.capsule, StencilError(e.what(), e.missing(), w));
+    }
+    started = true;
+  }
+  const auto cells = static_cast<std::size_t>(t.num_cells());
+  if (!any_cells_)
+    for (auto& f : force_) f.assign(cells, 0.0);
+  if (!any_faces_)
+    for (auto& f : face_force_) f.assign(cells, 0.0);
+}
+
+void CapsuleCoupling::interpolate_routed(int step, const fluid::FaceField<3>& uf,
+                                         const std::function<Eigen::Matrix3Xd&(Capsule&)>& velocity_of) {
+  const tree::Tree<3>& t = ns_.tree();
+  const OwnedPositions own = owned_positions();
+  std::vector<PartialVelocities> partials(routed_.ranges.size());
+  collectively([&] {
+    for (std::size_t r = 0; r < routed_.ranges.size(); ++r) {
+      const RoutedNodes::Range& range = routed_.ranges[r];
+      const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
+      const Eigen::Matrix3Xd x = routed_.x.middleCols(range.begin, range.end - range.begin);
+      try {
+        interpolate_faces_owned(kc.interpolate, kc.divergence_free, t, uf, x, own, partials[r]);
+      } catch (const StencilError& e) {
+        StencilError::Where w = e.where();
+        w.node = routed_.node[static_cast<std::size_t>(range.begin + w.node)];
+        fail_stencil(step, range.capsule, StencilError(e.what(), e.missing(), w));
+      }
+    }
+  });
+  std::vector<VelocityTargets> targets;
+  for (int k = 0; k < num_capsules(); ++k)
+    if (owns(k)) {
+      Capsule& c = capsule(k);
+      targets.push_back({k, c.kernels.interpolate, c.kernels.divergence_free, &stage_positions(c), &velocity_of(c)});
+    }
+  // Local inconsistencies found after its exchange stop every rank alike.
+  collectively([&] { return_velocities(forest_->comm(), t.options(), t.cell_size(t.max_level()), routed_, partials, targets); });
+}
+
+CouplingStep CapsuleCoupling::distributed_step(int step) {
+  CouplingStep out;
+  for (const KernelChoice& kc : kernels_)
+    if (!kc.staggered)
+      throw std::invalid_argument("ibm: the cell-centred coupling (staggered = false) runs on one rank only");
+  migrate();
+  const double dt = ns_.stable_dt();
+  collectively([&] {
+    for (int k = 0; k < num_capsules(); ++k) {
+      if (!owns(k) || scheme_ != NodeScheme::midpoint) continue;
+      Capsule& c = capsule(k);
+      c.x_mid = c.x;
+      if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
+    }
+    compute_forces(step);
+  });
+  auto t0 = Clock::now();
+  routed_ = route([this](const Capsule& c) -> const Eigen::Matrix3Xd& { return stage_positions(c); }, true,
+                  [this](int k) { return stencil_reach(k); });
+  collectively([&] { spread_routed(step); });
+  // The ghosts' faces hold their owners' sums (the flow's face loops read them).
+  ns_.tree().exchange_all(fluid::components<3>(face_force_));
+  force_ready_ = true;
+  times_.spreading += seconds_since(t0);
+  if (scheme_ == NodeScheme::midpoint) {  // J(X*) u^n, as predict_midpoint on one rank
+    t0 = Clock::now();
+    const tree::Tree<3>& t = ns_.tree();
+    const fluid::FaceField<3>* faces = &ns_.face_velocity();
+    if (!ns_.face_velocity_current() && !ns_.face_velocity_carried()) {
+      fluid::resize<3>(start_faces_, t);
+      const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+      fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
+        start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
+      });
+      faces = &start_faces_;
+    }
+    interpolate_routed(step, *faces, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.start_velocity; });
+    times_.interpolation += seconds_since(t0);
+  }
+  face_seconds_ = 0.0;
+  t0 = Clock::now();
+  try {
+    out.fluid = ns_.step();
+  } catch (...) {
+    force_ready_ = false;
+    throw;
+  }
+  force_ready_ = false;
+  const double previous_dt = last_dt_;
+  last_dt_ = out.fluid.dt;
+  times_.fluid += seconds_since(t0) - face_seconds_;
+  times_.spreading += face_seconds_;
+  t0 = Clock::now();
+  for (int k = 0; k < num_capsules(); ++k)
+    if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);
+  interpolate_routed(step, ns_.face_velocity(), [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
+  times_.interpolation += seconds_since(t0);
+  collectively([&] { advance_nodes(step, out.fluid.dt, previous_dt); });
+  ++steps_;
+  ++since_adapt_;
+  return out;
+}
+
+std::vector<CapsuleCoupling::SavedState> CapsuleCoupling::gather_on_root() const {
+  std::vector<SavedState> all(static_cast<std::size_t>(num_capsules()));
+  auto save = [](const Capsule& c) { return SavedState{c.x, c.x_at_adapt, c.velocity, c.work}; };
+  if (!distributed()) {
+    for (int k = 0; k < num_capsules(); ++k) all[static_cast<std::size_t>(k)] = save(capsule(k));
+    return all;
+  }
+  const parallel::Comm& comm = forest_->comm();
+  std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm.size()));
+  auto& w = send[0];
+  for (int k = 0; k < num_capsules(); ++k) {
+    if (!owns(k)) continue;
+    const Capsule& c = capsule(k);
+    const bool has_velocity = c.velocity.cols() == c.x.cols();
+    w.insert(w.end(), {static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(c.x.cols()), has_velocity ? 1u : 0u});
+    push_matrix(w, c.x);
+    push_matrix(w, c.x_at_adapt);
+    if (has_velocity) push_matrix(w, c.velocity);
+    w.push_back(bits(c.work));
+  }
+  const auto received = parallel::all_to_all(comm, send);
+  if (!comm.is_root()) return {};
+  for (const auto& words : received)
+    for (const std::uint64_t* p = words.data(); p < words.data() + words.size();) {
+      const auto k = static_cast<std::size_t>(*p++);
+      const auto nodes = static_cast<Eigen::Index>(*p++);
+      const bool has_velocity = *p++ != 0;
+      SavedState& s = all[k];
+      p = pop_matrix(p, s.x, nodes);
+      p = pop_matrix(p, s.x_at_adapt, nodes);
+      if (has_velocity) p = pop_matrix(p, s.velocity, nodes);
+      s.work = value(*p++);
+    }
+  return all;
+}
+
+}  // namespace capsflow::ibm
