@@ -117,19 +117,15 @@ class FlowRun {
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);
       budget_->restore(state.extras);
-      // The faces (absent from older checkpoints and ones written before any step).
-      if (comm_.size() == 1) {
-        bool current = true;
-        for (const auto& e : state.extras)
-          if (e.name == "face_velocity_current" && e.values.size() == 1) current = e.values[0] != 0.0;
-        for (const auto& e : state.extras)
-          if (e.name == "face_velocity") {
-            try {
-              ns_.restore_leaf_faces(e.values, current);
-            } catch (const std::invalid_argument& err) {
-              throw io::CheckpointError(fmt::format("{}: {}", request_.restart->string(), err.what()));
-            }
-          }
+      // The faces (absent from older checkpoints and ones written before any step); on N
+      // ranks restored on each rank's leaves once the tree is distributed, below.
+      for (const auto& e : state.extras)
+        if (e.name == "face_velocity_current" && e.values.size() == 1) restart_faces_current_ = e.values[0] != 0.0;
+      for (const auto& e : state.extras)
+        if (e.name == "face_velocity") restart_faces_ = e.values;
+      if (!restart_faces_.empty()) {
+        restart_face_order_ = ns_.leaf_order();
+        if (comm_.size() == 1) restore_faces();
       }
     } else {
       if (comm_.size() > 1) distribute_coarse_start();
@@ -141,6 +137,7 @@ class FlowRun {
     if (comm_.size() > 1 && !forest_) {
       forest_ = tree::distribute(comm_, tree_);
       if (capsules_) capsules_->distribute();
+      if (!restart_faces_.empty()) restore_faces();
     }
     // Diagnostics and the series are rank 0's.
     std::optional<io::DiagnosticsCsv> diagnostics, capsule_rows;
@@ -329,26 +326,33 @@ class FlowRun {
     const fs::path file = out_ / numbered("checkpoint", step, "h5");
     // The capsules' states from their owners (collective), on rank 0.
     const std::vector<io::ExtraArray> capsule_extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
+    // The faces the next step starts from, where it reads them (midpoint nodes, carry_faces):
+    // without them a restarted run starts from the face mean of the cell velocity and departs
+    // from the uninterrupted one. Gathered on rank 0 (collective).
+    const bool faces_read = case_.fluid.carry_faces || (capsules_ && case_.time.node_scheme == io::NodeScheme::midpoint);
+    std::vector<double> faces = faces_read ? ns_.leaf_faces() : std::vector<double>{};
     with_whole_tree([&](const tree::Tree<D>& t) {
       std::vector<io::ExtraArray> extras = capsule_extras;
       for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
-      // The faces the next step starts from, where it reads them (midpoint nodes,
-      // carry_faces): without them a restarted run starts from the face mean of the cell
-      // velocity and departs from the uninterrupted one. On N ranks they are not gathered:
-      // such a restart starts there.
-      const bool faces_read =
-          case_.fluid.carry_faces || (capsules_ && case_.time.node_scheme == io::NodeScheme::midpoint);
-      if (!forest_ && faces_read) {
-        std::vector<double> faces = ns_.leaf_faces();
-        if (!faces.empty()) {
-          const std::size_t n = faces.size() / (2 * D);
-          extras.push_back({"face_velocity", {n, 2 * D}, std::move(faces)});
-          extras.push_back({"face_velocity_current", {1}, {ns_.face_velocity_current() ? 1.0 : 0.0}});
-        }
+      if (!faces.empty()) {
+        const std::size_t n = faces.size() / (2 * D);
+        extras.push_back({"face_velocity", {n, 2 * D}, std::move(faces)});
+        extras.push_back({"face_velocity_current", {1}, {ns_.face_velocity_current() ? 1.0 : 0.0}});
       }
       io::write_checkpoint<D>(file, t, {ns_.time(), step, dt}, extras);
     });
     return file;
+  }
+
+  // The checkpoint's faces on this rank's leaves (restart_face_order_: the checkpoint's leaves
+  // by (level, key)). Collective on N ranks.
+  void restore_faces() {
+    try {
+      ns_.restore_leaf_faces(restart_faces_, restart_faces_current_, restart_face_order_);
+    } catch (const std::invalid_argument& err) {
+      throw io::CheckpointError(fmt::format("{}: {}", request_.restart->string(), err.what()));
+    }
+    restart_faces_.clear();
   }
 
   // SIGINT or SIGTERM (interrupt.hpp): the step is complete; keep it in a checkpoint whatever
@@ -420,6 +424,10 @@ class FlowRun {
   std::optional<EnergyBudget<D>> budget_;  // the energy columns of diagnostics.csv
   ProgressLine progress_;
   long unconverged_since_row_ = 0;  // the next diagnostics row's mg_unconverged
+  // A restart's projected faces and its leaves' order, until restored (after distribution).
+  std::vector<double> restart_faces_;
+  bool restart_faces_current_ = true;
+  std::vector<std::pair<int, tree::Key>> restart_face_order_;
   bool warned_unconverged_ = false;
 };
 
@@ -441,14 +449,6 @@ void run_case(const RunRequest& req) {
       throw io::CaseError(fmt::format("{}: capsule[{}].staggered = false on {} MPI ranks: the cell-centred coupling runs on "
                                       "one rank only (run without mpirun, or with the default staggered coupling)",
                                       req.case_file.string(), k, comm.size()));
-  // The carried faces survive an adaptation and a restart on one rank only (a distributed
-  // adapt renumbers the cells through the partition, and checkpoints of N ranks do not
-  // gather the faces): such a run would silently leave one rank's numbers.
-  if (comm.size() > 1 && c.fluid.carry_faces && (c.adapt.enabled || req.restart))
-    throw io::CaseError(fmt::format("{}: fluid.carry_faces on {} MPI ranks {}: the carried faces are kept on one rank "
-                                    "only (docs/parallel.md); run it without mpirun, or with --adapt off and no restart",
-                                    req.case_file.string(), comm.size(),
-                                    c.adapt.enabled ? "with adaptation" : "from a checkpoint"));
   bool created = false;
   on_root(comm, [&] { created = prepare_output_dir(out, req.force, req.restart); });
   install_interrupt_handlers();

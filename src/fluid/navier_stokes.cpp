@@ -12,6 +12,8 @@
 
 #include "fluid/flow_properties.hpp"
 #include "fluid/multigrid/elliptic_operator.hpp"
+#include "parallel/all_to_all.hpp"
+#include "tree/distributed_forest.hpp"
 
 namespace capsflow::fluid {
 
@@ -76,35 +78,81 @@ std::vector<Index> leaves_by_key(const tree::Tree<D>& t) {
 
 template <int D>
 std::vector<double> NavierStokes<D>::leaf_faces() const {
-  CAPSFLOW_ASSERT(!tree_.distributed(), "NavierStokes::leaf_faces: one rank only");
-  if (!(faces_current_ || faces_carried_)) return {};
-  std::vector<double> out;
-  out.reserve(static_cast<std::size_t>(tree_.num_leaves()) * 2 * D);
-  for (const Index c : leaves_by_key(tree_)) {
+  if (!(faces_current_ || faces_carried_)) return {};  // the same on every rank
+  const auto faces_of = [&](Index c, std::vector<double>& out) {
     const Index* row = tree_.level(tree_.level_of(c)).face_row(c);
     for (int d = 0; d < D; ++d) {
       out.push_back(uf_[d][c]);
       out.push_back(uf_[d][row[2 * d + 1]]);
     }
+  };
+  std::vector<double> out;
+  if (!tree_.distributed()) {
+    out.reserve(static_cast<std::size_t>(tree_.num_leaves()) * 2 * D);
+    for (const Index c : leaves_by_key(tree_)) faces_of(c, out);
+    return out;
   }
+  // Each rank's owned leaves (level, key, faces) to rank 0, which orders them by (level, key).
+  const auto* forest = dynamic_cast<const tree::DistributedForest<D>*>(tree_.distribution());
+  const parallel::Comm& comm = forest->comm();
+  std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm.size()));
+  std::vector<double> faces;
+  for (const Index c : tree_.owned_leaves()) {
+    const int l = tree_.level_of(c);
+    send[0].push_back(static_cast<std::uint64_t>(l));
+    send[0].push_back(tree_.level(l).keys[static_cast<std::size_t>(c - tree_.level(l).base)]);
+    faces.clear();
+    faces_of(c, faces);
+    for (const double v : faces) send[0].push_back(std::bit_cast<std::uint64_t>(v));
+  }
+  const auto received = parallel::all_to_all(comm, send);
+  if (!comm.is_root()) return {};
+  constexpr std::size_t kWords = 2 + 2 * D;
+  std::vector<const std::uint64_t*> entries;
+  for (const auto& w : received)
+    for (std::size_t k = 0; k + kWords <= w.size(); k += kWords) entries.push_back(w.data() + k);
+  std::sort(entries.begin(), entries.end(), [](const std::uint64_t* a, const std::uint64_t* b) {
+    return a[0] != b[0] ? a[0] < b[0] : a[1] < b[1];
+  });
+  out.reserve(entries.size() * 2 * D);
+  for (const std::uint64_t* e : entries)
+    for (std::size_t j = 2; j < kWords; ++j) out.push_back(std::bit_cast<double>(e[j]));
   return out;
 }
 
 template <int D>
-void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool current) {
-  CAPSFLOW_ASSERT(!tree_.distributed(), "NavierStokes::restore_leaf_faces: one rank only");
-  if (values.size() != static_cast<std::size_t>(tree_.num_leaves()) * 2 * D)
-    throw std::invalid_argument(fmt::format("face velocity: {} values for {} leaves (2D per leaf expected)",
-                                            values.size(), tree_.num_leaves()));
-  resize_scratch();
-  std::size_t k = 0;
+std::vector<std::pair<int, tree::Key>> NavierStokes<D>::leaf_order() const {
+  std::vector<std::pair<int, tree::Key>> order;
   for (const Index c : leaves_by_key(tree_)) {
-    const Index* row = tree_.level(tree_.level_of(c)).face_row(c);
+    const int l = tree_.level_of(c);
+    order.emplace_back(l, tree_.level(l).keys[static_cast<std::size_t>(c - tree_.level(l).base)]);
+  }
+  return order;
+}
+
+template <int D>
+void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool current,
+                                         std::span<const std::pair<int, tree::Key>> order) {
+  const std::vector<std::pair<int, tree::Key>> own_order = order.empty() ? leaf_order() : std::vector<std::pair<int, tree::Key>>{};
+  if (order.empty()) order = own_order;
+  if (values.size() != order.size() * 2 * D)
+    throw std::invalid_argument(fmt::format("face velocity: {} values for {} leaves (2D per leaf expected)",
+                                            values.size(), order.size()));
+  resize_scratch();
+  for (const Index c : tree_.owned_leaves()) {  // every leaf on one rank
+    const int l = tree_.level_of(c);
+    const std::pair<int, tree::Key> key{l, tree_.level(l).keys[static_cast<std::size_t>(c - tree_.level(l).base)]};
+    const auto it = std::lower_bound(order.begin(), order.end(), key);
+    if (it == order.end() || *it != key)
+      throw std::invalid_argument(fmt::format("face velocity: leaf (level {}, key {}) is not the checkpoint's", l, key.second));
+    std::size_t k = static_cast<std::size_t>(it - order.begin()) * 2 * D;
+    const Index* row = tree_.level(l).face_row(c);
     for (int d = 0; d < D; ++d) {
       uf_[d][c] = values[k++];
       uf_[d][row[2 * d + 1]] = values[k++];
     }
   }
+  tree_.exchange_all(components<D>(uf_));  // the ghosts' faces from their owners
   faces_current_ = current;
   faces_carried_ = !current;
 }

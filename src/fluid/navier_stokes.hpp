@@ -25,6 +25,7 @@
 #include <array>
 #include <functional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "fluid/faces.hpp"
@@ -123,12 +124,18 @@ class NavierStokes {
   // The face velocity for a checkpoint (issue 17: a restarted run with the midpoint node
   // scheme or carry_faces must start from the same u^n faces as the uninterrupted one):
   // for each leaf by (level, Morton key), its lower then upper face along each axis
-  // (2D values); empty when the faces are neither current nor carried. One rank only.
+  // (2D values); empty when the faces are neither current nor carried. On N ranks every
+  // leaf's, on rank 0 (empty on the others): collective.
   std::vector<double> leaf_faces() const;
-  // Restores what leaf_faces() gave on the same leaf set (a checkpoint's), as current
-  // faces when `current`, else as carried ones. Throws std::invalid_argument for a size
-  // that is not 2D per leaf.
-  void restore_leaf_faces(std::span<const double> values, bool current);
+  // The leaves by (level, key), the order of leaf_faces().
+  std::vector<std::pair<int, tree::Key>> leaf_order() const;
+  // Restores what leaf_faces() gave, as current faces when `current`, else as carried ones:
+  // on one rank on the same leaf set (a checkpoint's), on N ranks on each rank's leaves,
+  // found in `order` (the checkpoint's leaf_order(), taken before the tree was distributed;
+  // empty: this tree's own). Throws std::invalid_argument for a size that is not 2D per
+  // leaf or a leaf not in `order`. Collective on N ranks.
+  void restore_leaf_faces(std::span<const double> values, bool current,
+                          std::span<const std::pair<int, tree::Key>> order = {});
 
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.

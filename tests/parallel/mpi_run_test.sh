@@ -7,12 +7,13 @@
 #     the run without mpirun;
 #     the 3D duct (adaptive) on 4 ranks the same;
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
-#  3. carried faces (fluid.carry_faces) on 2 ranks: uniform as one rank, adaptive refused;
+#  3. carried faces (fluid.carry_faces) on 2 and 3 ranks, uniform and adaptive, as one rank;
 #     a warning (unconverged solves) printed once, not once per rank;
 #     a uniform grid too big for this node, and a capsule with the cell-centred coupling, on 2
 #     ranks are refused: exit 2, one capsflow line, no output folder (under mpirun -q, nothing else);
 #  4. capsules on 2-4 ranks: the quick relaxation and the seed case's scheme (midpoint nodes,
-#     adaptations in time) write one rank's diagnostics, capsule rows and final nodes.
+#     adaptations in time) write one rank's diagnostics, capsule rows and final nodes; a
+#     checkpoint written on 2 ranks restarts on 1 and 3 into the uninterrupted run.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -85,11 +86,11 @@ checkpoint=$(ls "$dir/np2"/checkpoint_000020.h5) || fail "2 ranks wrote no check
 cmp -s "$dir/serial/cells_final.csv" "$dir/restart/cells_final.csv" || fail "restart on 3 ranks ends elsewhere"
 echo "checkpoint of 2 ranks restarted on 3: same final cells"
 
-# Carried faces (fluid.carry_faces): on 2 ranks a uniform run is one rank's; an adaptive
-# one, whose faces a distributed adapt cannot carry, is refused with exit 2 and one line.
+# Carried faces (fluid.carry_faces): on 2 ranks, uniform and adaptive (the faces travel
+# through the distributed adaptations), one rank's numbers.
 carry=(run "$cases/cavity_2d.toml" --set time.t_end=0.1 --set fluid.carry_faces=true --set output.vtu=false --quiet)
 matches_one_rank carried-faces-uniform 2 "${carry[@]}" --adapt off --set adapt.max_level=6
-refused carried-faces-adaptive 'carry_faces' "${carry[@]}"
+matches_one_rank carried-faces-adaptive 3 "${carry[@]}"
 
 # A warning is printed once, not once per rank: solves forced to miss their tolerance.
 "$mpiexec" -n 2 --oversubscribe "$capsflow" "${cavity[@]}" --set time.t_end=0.02 --set fluid.multigrid.max_cycles=1 \
@@ -130,3 +131,19 @@ for n in 2 3 4; do capsule_matches_one_rank "quick-relaxation" "$n" "${quick[@]}
 seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
       --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)
 capsule_matches_one_rank "seed-scheme" 3 "${seed[@]}"
+# Written on 2 ranks, restarted on 1 and on 3: the uninterrupted run's rows and nodes (the
+# capsule's state and the projected faces travel in the one checkpoint file).
+"$mpiexec" -n 2 --oversubscribe "$capsflow" "${seed[@]}" --set output.checkpoint=true --set output.checkpoint_interval=10 \
+  --out "$dir/seed-written-on-2" 2> "$dir/err" || fail "seed scheme on 2 ranks with checkpoints: exit $? $(cat "$dir/err")"
+for n in 1 3; do
+  cp -r "$dir/seed-written-on-2" "$dir/seed-restart-$n"
+  restart=("${seed[@]}" --set output.checkpoint=true --set output.checkpoint_interval=10 --out "$dir/seed-restart-$n"
+           --restart "$dir/seed-restart-$n/checkpoint_000010.h5")
+  if [ "$n" -eq 1 ]; then "$capsflow" "${restart[@]}" 2> "$dir/err"; else "$mpiexec" -n "$n" --oversubscribe "$capsflow" "${restart[@]}" 2> "$dir/err"; fi ||
+    fail "restart on $n ranks: exit $? $(cat "$dir/err")"
+  diff <(no_wall "$dir/seed-scheme.1/diagnostics.csv") <(no_wall "$dir/seed-restart-$n/diagnostics.csv") > /dev/null ||
+    fail "checkpoint of 2 ranks restarted on $n: diagnostics differ from the uninterrupted run"
+  cmp -s "$dir/seed-scheme.1/membrane_final.csv" "$dir/seed-restart-$n/membrane_final.csv" ||
+    fail "checkpoint of 2 ranks restarted on $n: final nodes differ from the uninterrupted run"
+  echo "capsule checkpoint of 2 ranks restarted on $n: the uninterrupted run's rows and nodes"
+done
