@@ -237,6 +237,9 @@ class FlowRun {
     if (c.output.cells_csv) write_cells_csv();
     if (capsules_) {
       capsules_->write_final(out_);  // collective: rank 0 writes
+      const std::int64_t moves = tree_.global_sum(capsules_->coupling().migrations());
+      if (!request_.quiet && forest_)
+        std::fprintf(stderr, "capsules moved between ranks %lld times\n", static_cast<long long>(moves));
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
         const double n = double(std::max<long>(1, step - first_step));

@@ -154,6 +154,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
     double work = 0.0;
   };
   [[nodiscard]] std::vector<SavedState> gather_on_root() const;
+  // Capsules this rank handed to another since construction (their centroid left its cells).
+  [[nodiscard]] std::int64_t migrations() const { return migrations_; }
 
   // One coupled step (stages 1-5); the caller's fluid::Adaptation adapts after it.
   CouplingStep step();
@@ -275,6 +277,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   ModelFactory factory_;
   RoutedNodes routed_;
   std::vector<MembraneTags> bands_;
+  std::int64_t migrations_ = 0;
   CellVector force_;
   fluid::FaceField<3> face_force_;
   bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled

@@ -95,6 +95,7 @@ void CapsuleCoupling::migrate() {
     if (has_velocity) push_matrix(w, c.velocity);
     w.insert(w.end(), {bits(c.work), bits(c.energy)});
     capsules_[static_cast<std::size_t>(k)].reset();
+    ++migrations_;
   }
   const auto received = parallel::all_to_all(comm, send);
   for (const auto& w : received)
