@@ -14,7 +14,8 @@
 #  4. capsules on 2 to 4 ranks: the quick relaxation and the seed case's scheme (midpoint nodes,
 #     adaptations in time) write one rank's diagnostics, capsule rows and final nodes; a
 #     checkpoint written on 2 ranks restarts on 1 and 3 into the uninterrupted run; a capsule
-#     carried across ranks by an inflow changes owner and matches one rank.
+#     carried across ranks by an inflow changes owner and matches one rank; a capsule blowing
+#     up on one rank stops every rank with status 3 and one line.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -141,6 +142,48 @@ capsule_matches_one_rank "carried-capsule" 3 "${carried[@]}"  # not --quiet: the
 moves=$(tr '\r' '\n' < "$dir/err" | sed -n 's/^capsules moved between ranks \([0-9]*\) times$/\1/p')
 [ -n "$moves" ] && [ "$moves" -ge 1 ] || fail "carried capsule on 3 ranks: expected it to change owner; got: $(cat "$dir/err")"
 echo "carried capsule on 3 ranks: changed owner $moves time(s)"
+
+# A capsule that blows up on one rank while the other rank's capsule is fine (two capsules at
+# either end of the channel, the second far too stiff for dt): every rank stops with status
+# 3 and one message, within seconds (no rank left waiting in a collective).
+cat > "$dir/two.toml" <<'CASE'
+name = "two_capsules"
+[domain]
+roots = [4, 1, 1]
+root_size = 2.0
+origin = [-4.0, -1.0, -1.0]
+[fluid]
+stokes = true
+boundary = { x_lo = { type = "wall" }, x_hi = { type = "outflow" }, y_lo = { type = "wall" }, y_hi = { type = "wall" }, z_lo = { type = "wall" }, z_hi = { type = "wall" } }
+[adapt]
+min_level = 2
+max_level = 4
+wall_level = 3
+[[capsule]]
+Ca = 0.05
+nodes = 642
+radius = 0.5
+centre = [-2.5, 0.0, 0.0]
+shape = "ellipsoid"
+axes_factors = [1.5, 0.8164965809277261, 0.8164965809277261]
+[[capsule]]
+Ca = 0.00001
+nodes = 642
+radius = 0.5
+centre = [2.5, 0.0, 0.0]
+shape = "ellipsoid"
+axes_factors = [1.5, 0.8164965809277261, 0.8164965809277261]
+[time]
+t_end = 0.2
+[output]
+vtu = false
+CASE
+timeout 120 "$mpiexec" -q -n 2 --oversubscribe "$capsflow" run "$dir/two.toml" --out "$dir/two" --quiet > "$dir/all" 2>&1
+status=$?
+if [ "$status" -ne 3 ] || [ "$(grep -c '^capsflow:' "$dir/all")" -ne 1 ] || ! grep -q '^capsflow: capsule coupling: step [0-9]* .*capsule 1:' "$dir/all"; then
+  fail "a blow-up on one rank: expected exit 3 and one capsflow line naming capsule 1; got $status: $(cat "$dir/all")"
+fi
+echo "a blow-up on one of 2 ranks: exit 3 on every rank, one line"
 
 # Written on 2 ranks, restarted on 1 and on 3: the uninterrupted run's rows and nodes (the
 # capsule's state and the projected faces travel in the one checkpoint file).
