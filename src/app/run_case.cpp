@@ -238,8 +238,17 @@ class FlowRun {
     if (capsules_) {
       capsules_->write_final(out_);  // collective: rank 0 writes
       const std::int64_t moves = tree_.global_sum(capsules_->coupling().migrations());
+      const auto& traffic = capsules_->coupling().traffic();
+      const std::int64_t words = tree_.global_max(traffic.words_sent);
+      const std::int64_t capsules_seen = tree_.global_max(traffic.most_capsules_received);
+      const std::int64_t nodes_seen = tree_.global_max(traffic.most_nodes_received);
       if (!request_.quiet && forest_)
-        std::fprintf(stderr, "capsules moved between ranks %lld times\n", static_cast<long long>(moves));
+        std::fprintf(stderr,
+                     "capsules moved between ranks %lld times; capsule traffic: at most %.0f words sent a step by a "
+                     "rank, at most %lld of the %d capsules (%lld nodes) routed to a rank at once\n",
+                     static_cast<long long>(moves), double(words) / double(std::max<long>(1, step - first_step)),
+                     static_cast<long long>(capsules_seen), capsules_->coupling().num_capsules(),
+                     static_cast<long long>(nodes_seen));
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
         const double n = double(std::max<long>(1, step - first_step));

@@ -66,7 +66,8 @@ tree::AdaptCounts Adaptation<D>::forced_passes() {
     total.refined += c.refined;
     total.leaves = c.leaves;
     total.cells = c.cells;
-    if (c.refined == 0) return total;
+    // Settled when no rank refined (the counts are each rank's own: every rank must agree).
+    if (ns_.tree().global_sum(std::int64_t{c.refined}) == 0) return total;
   }
   throw std::runtime_error("adaptation: the forced refinement did not settle in 64 passes");
 }

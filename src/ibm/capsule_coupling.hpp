@@ -156,6 +156,15 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   [[nodiscard]] std::vector<SavedState> gather_on_root() const;
   // Capsules this rank handed to another since construction (their centroid left its cells).
   [[nodiscard]] std::int64_t migrations() const { return migrations_; }
+  // What this rank sent to other ranks in the steps since construction (adaptations aside):
+  // node routings, interpolated values going back, migrating capsules (64-bit words); and
+  // the most capsules and nodes one routing of a step brought to it. For the weak-scaling
+  // model and the test that this traffic follows the capsules near a rank, not all of them.
+  struct Traffic {
+    std::int64_t words_sent = 0;
+    std::int64_t most_capsules_received = 0, most_nodes_received = 0;
+  };
+  [[nodiscard]] const Traffic& traffic() const { return traffic_; }
 
   // One coupled step (stages 1-5); the caller's fluid::Adaptation adapts after it.
   CouplingStep step();
@@ -278,6 +287,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   RoutedNodes routed_;
   std::vector<MembraneTags> bands_;
   std::int64_t migrations_ = 0;
+  mutable Traffic traffic_;
   CellVector force_;
   fluid::FaceField<3> face_force_;
   bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled

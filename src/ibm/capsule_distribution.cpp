@@ -94,6 +94,7 @@ void CapsuleCoupling::migrate() {
     push_matrix(w, c.x_at_adapt);
     if (has_velocity) push_matrix(w, c.velocity);
     w.insert(w.end(), {bits(c.work), bits(c.energy)});
+    traffic_.words_sent += 5 + 9 * c.x.cols();
     capsules_[static_cast<std::size_t>(k)].reset();
     ++migrations_;
   }
@@ -184,7 +185,9 @@ void CapsuleCoupling::interpolate_routed(int step, const fluid::FaceField<3>& uf
       targets.push_back({k, c.kernels.interpolate, c.kernels.divergence_free, &stage_positions(c), &velocity_of(c)});
     }
   // Local inconsistencies found after its exchange stop every rank alike.
-  collectively([&] { return_velocities(forest_->comm(), t.options(), t.cell_size(t.max_level()), routed_, partials, targets); });
+  collectively([&] {
+    traffic_.words_sent += return_velocities(forest_->comm(), t.options(), t.cell_size(t.max_level()), routed_, partials, targets);
+  });
 }
 
 CouplingStep CapsuleCoupling::distributed_step(int step) {
@@ -206,6 +209,10 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
   auto t0 = Clock::now();
   routed_ = route([this](const Capsule& c) -> const Eigen::Matrix3Xd& { return stage_positions(c); }, true,
                   [this](int k) { return stencil_reach(k); });
+  traffic_.words_sent += routed_.words_sent;
+  traffic_.most_capsules_received = std::max<std::int64_t>(traffic_.most_capsules_received,
+                                                           static_cast<std::int64_t>(routed_.ranges.size()));
+  traffic_.most_nodes_received = std::max<std::int64_t>(traffic_.most_nodes_received, routed_.x.cols());
   collectively([&] { spread_routed(step); });
   // The ghosts' faces hold their owners' sums (the flow's face loops read them).
   ns_.tree().exchange_all(fluid::components<3>(face_force_));

@@ -84,7 +84,10 @@ RoutedNodes route_nodes(const parallel::Comm& comm, const tree::Partition& parti
     }
   }
   for (int q = 0; q < p; ++q)
-    if (q != comm.rank() && !send[static_cast<std::size_t>(q)].empty()) ++out.ranks_sent_to;
+    if (q != comm.rank() && !send[static_cast<std::size_t>(q)].empty()) {
+      ++out.ranks_sent_to;
+      out.words_sent += static_cast<std::int64_t>(send[static_cast<std::size_t>(q)].size());
+    }
 
   const auto received = parallel::all_to_all(comm, send);
   struct Entry {
@@ -118,9 +121,9 @@ RoutedNodes route_nodes(const parallel::Comm& comm, const tree::Partition& parti
   return out;
 }
 
-void return_velocities(const parallel::Comm& comm, const tree::TreeOptions<3>& options, double h,
-                       const RoutedNodes& routed, std::span<const PartialVelocities> partials,
-                       std::span<const VelocityTargets> targets) {
+std::int64_t return_velocities(const parallel::Comm& comm, const tree::TreeOptions<3>& options, double h,
+                               const RoutedNodes& routed, std::span<const PartialVelocities> partials,
+                               std::span<const VelocityTargets> targets) {
   if (partials.size() != routed.ranges.size())
     throw std::logic_error("ibm: one set of partial velocities per routed capsule expected");
   // Per reply: capsule, node, axis + 4 kind + 256 count, then the sum or count (slot, value) pairs.
@@ -148,6 +151,9 @@ void return_velocities(const parallel::Comm& comm, const tree::TreeOptions<3>& o
         }
       }
   }
+  std::int64_t sent = 0;
+  for (int q = 0; q < comm.size(); ++q)
+    if (q != comm.rank()) sent += static_cast<std::int64_t>(send[static_cast<std::size_t>(q)].size());
   const auto received = parallel::all_to_all(comm, send);
 
   // Flags, not NaN markers: a blown-up flow's NaN must reach the caller's finiteness check.
@@ -215,6 +221,7 @@ void return_velocities(const parallel::Comm& comm, const tree::TreeOptions<3>& o
   for (const auto& [capsule, entry] : target_of)
     for (std::size_t k = 0; k < entry.second.size(); ++k)
       if (!entry.second[k]) fail(capsule, static_cast<std::int64_t>(k / 3), static_cast<int>(k % 3), "no rank interpolated it");
+  return sent;
 }
 
 }  // namespace capsflow::ibm

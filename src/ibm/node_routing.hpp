@@ -39,9 +39,9 @@ struct RoutedNodes {
   std::vector<Range> ranges;  // capsules ascending, each once
   std::vector<std::int32_t> node;  // the node's index in its capsule, ascending within a range
   Eigen::Matrix3Xd x, f;
-  // Traffic of the routing, for the benchmarks and the weak-scaling model: nodes sent to
-  // other ranks and the ranks sent to.
-  std::int64_t nodes_sent = 0;
+  // Traffic of the routing, for the benchmarks and the weak-scaling model: nodes and words
+  // sent to other ranks and the ranks sent to.
+  std::int64_t nodes_sent = 0, words_sent = 0;
   int ranks_sent_to = 0;
 };
 
@@ -64,8 +64,9 @@ struct VelocityTargets {
   const Eigen::Matrix3Xd* x = nullptr;  // where the stencils were taken
   Eigen::Matrix3Xd* v = nullptr;        // resized and filled
 };
-void return_velocities(const parallel::Comm& comm, const tree::TreeOptions<3>& options, double h,
-                       const RoutedNodes& routed, std::span<const PartialVelocities> partials,
-                       std::span<const VelocityTargets> targets);
+// Returns the words this rank sent to other ranks.
+std::int64_t return_velocities(const parallel::Comm& comm, const tree::TreeOptions<3>& options, double h,
+                               const RoutedNodes& routed, std::span<const PartialVelocities> partials,
+                               std::span<const VelocityTargets> targets);
 
 }  // namespace capsflow::ibm

@@ -198,7 +198,7 @@ AdaptCounts Tree<D>::refine_to(const std::function<int(const Box<D>&)>& required
     total.refined += c.refined;
     total.leaves = c.leaves;
     total.cells = c.cells;
-    if (c.refined == 0) return total;
+    if (global_sum(std::int64_t{c.refined}) == 0) return total;  // every rank agrees (counts are each rank's)
   }
   throw std::runtime_error(fmt::format("tree: refine_to did not settle in {} passes", max_passes));
 }

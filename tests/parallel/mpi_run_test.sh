@@ -15,7 +15,8 @@
 #     adaptations in time) write one rank's diagnostics, capsule rows and final nodes; a
 #     checkpoint written on 2 ranks restarts on 1 and 3 into the uninterrupted run; a capsule
 #     carried across ranks by an inflow changes owner and matches one rank; a capsule blowing
-#     up on one rank stops every rank with status 3 and one line.
+#     up on one rank stops every rank with status 3 and one line; two and eight capsules in a
+#     periodic box on 4 ranks match one rank, a rank hearing of at most 4 of the 8.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -139,9 +140,32 @@ carried=(run "$cases/relaxation_quick.toml" --set adapt.max_level=4 --set 'capsu
          --set 'capsule[0].shape=sphere' --set 'capsule[0].centre=[-2.0,0.0,0.0]' --set time.dt=0.002 --set time.t_end=0.5
          --set 'fluid.boundary.x_lo={type="inflow",profile="square_duct",mean_velocity=2.0}' --set output.vtu=false)
 capsule_matches_one_rank "carried-capsule" 3 "${carried[@]}"  # not --quiet: the summary line
-moves=$(tr '\r' '\n' < "$dir/err" | sed -n 's/^capsules moved between ranks \([0-9]*\) times$/\1/p')
+moves=$(tr '\r' '\n' < "$dir/err" | sed -n 's/^capsules moved between ranks \([0-9]*\) times.*$/\1/p')
 [ -n "$moves" ] && [ "$moves" -ge 1 ] || fail "carried capsule on 3 ranks: expected it to change owner; got: $(cat "$dir/err")"
 echo "carried capsule on 3 ranks: changed owner $moves time(s)"
+
+# Two and eight capsules in a triply periodic box on 4 ranks: each run one rank's, and a rank
+# hears only of the capsules near its cells (at most 4 of the 8: nothing scales with the
+# capsules times the ranks; the summary line gives the most capsules routed to a rank).
+box() {  # box CAPSULE_CENTRES...: the case with one ellipsoidal capsule at each centre
+  printf '%s\n' 'name = "box"' '[domain]' 'roots = [2, 2, 2]' 'root_size = 2.0' 'origin = [-2.0, -2.0, -2.0]' \
+    'periodic = [true, true, true]' '[fluid]' 'stokes = true' '[adapt]' 'min_level = 2' 'max_level = 4' '[time]' \
+    'dt = 0.002' 't_end = 0.02' '[output]' 'vtu = false' 'diagnostics_interval = 1'
+  for centre in "$@"; do
+    printf '%s\n' '[[capsule]]' 'Ca = 0.1' 'nodes = 642' 'radius = 0.4' "centre = [$centre]" 'shape = "ellipsoid"' \
+      'axes_factors = [1.3, 0.877058019307029, 0.877058019307029]'
+  done
+}
+box "-1.0, -1.0, -1.0" "1.0, 1.0, 1.0" > "$dir/box2.toml"
+box "-1.0, -1.0, -1.0" "1.0, -1.0, -1.0" "-1.0, 1.0, -1.0" "1.0, 1.0, -1.0" "-1.0, -1.0, 1.0" "1.0, -1.0, 1.0" \
+    "-1.0, 1.0, 1.0" "1.0, 1.0, 1.0" > "$dir/box8.toml"
+for k in 2 8; do
+  capsule_matches_one_rank "box-$k-capsules" 4 run "$dir/box$k.toml"  # not --quiet: the summary line
+  seen=$(tr '\r' '\n' < "$dir/err" | sed -n 's/.*at most \([0-9]*\) of the [0-9]* capsules.*/\1/p')
+  [ -n "$seen" ] || fail "box with $k capsules on 4 ranks: no traffic line in $(cat "$dir/err")"
+  if [ "$k" -eq 8 ] && [ "$seen" -gt 4 ]; then fail "box with 8 capsules on 4 ranks: $seen capsules routed to one rank"; fi
+  echo "box with $k capsules on 4 ranks: one rank's numbers; at most $seen capsules routed to a rank"
+done
 
 # A capsule that blows up on one rank while the other rank's capsule is fine (two capsules at
 # either end of the channel, the second far too stiff for dt): every rank stops with status
