@@ -136,6 +136,7 @@ class FlowRun {
     // A restart on N ranks: every rank has read the same forest; each keeps its part.
     if (comm_.size() > 1 && !forest_) {
       forest_ = tree::distribute(comm_, tree_);
+      weigh_membranes();
       if (capsules_) capsules_->distribute();
       if (!restart_faces_.empty()) restore_faces();
     }
@@ -429,6 +430,18 @@ class FlowRun {
     }
     (void)tree_.refine_to([level](const tree::Box<D>&) { return level; });
     forest_ = tree::distribute(comm_, tree_);
+    weigh_membranes();
+  }
+  // N ranks with capsules: a leaf in a membrane's band weighs adapt.membrane_weight in every
+  // later partition (its spreading and interpolation).
+  void weigh_membranes() {
+    if constexpr (D == 3)
+      if (capsules_ && forest_) {
+        const std::int64_t weight = case_.adapt.membrane_weight;
+        forest_->set_leaf_weight([this, weight](int level, tree::Key key) {
+          return capsules_->coupling().leaf_weight(level, key, weight);
+        });
+      }
   }
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step

@@ -154,6 +154,11 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
     double work = 0.0;
   };
   [[nodiscard]] std::vector<SavedState> gather_on_root() const;
+  // N ranks: the partition weight of a leaf (tree::LeafWeight): `band_weight` for a
+  // max-level leaf in a membrane's band near this rank's cells (the bands of the last
+  // update_region, which every adaptation calls before it repartitions), 1 elsewhere.
+  [[nodiscard]] std::int64_t leaf_weight(int level, tree::Key key, std::int64_t band_weight) const;
+
   // Capsules this rank handed to another since construction (their centroid left its cells).
   [[nodiscard]] std::int64_t migrations() const { return migrations_; }
   // What this rank sent to other ranks in the steps since construction (adaptations aside):

@@ -257,6 +257,14 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
   return out;
 }
 
+std::int64_t CapsuleCoupling::leaf_weight(int level, tree::Key key, std::int64_t band_weight) const {
+  if (level != ns_.tree().max_level()) return 1;
+  const tree::Coords<3> ijk = tree::morton_decode<3>(key);
+  for (const MembraneTags& tags : bands_)
+    if (tags.level() == level && tags.tagged(level, ijk)) return band_weight;
+  return 1;
+}
+
 std::vector<CapsuleCoupling::SavedState> CapsuleCoupling::gather_on_root() const {
   std::vector<SavedState> all(static_cast<std::size_t>(num_capsules()));
   auto save = [](const Capsule& c) { return SavedState{c.x, c.x_at_adapt, c.velocity, c.work}; };

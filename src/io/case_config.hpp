@@ -84,6 +84,9 @@ struct AdaptConfig {
   double velocity_tolerance_relative = 0.0;
   int wall_level = 0;                // level forced along walls, the no-slip sides (0: off)
   int membrane_band = 4;             // cells of max_level forced around membrane nodes
+  // N ranks: the partition weight of a max-level leaf in a membrane's band, that of a fluid
+  // leaf being 1 (spreading and interpolation make it several fluid cells' work).
+  int membrane_weight = 4;
   int interval = 1;                  // steps between adaptations
   // > interval: with capsules, an adaptation may wait up to this many steps while the
   // membrane nodes barely move (ibm::CapsuleCoupling::may_wait); 0: every interval.

@@ -99,6 +99,7 @@ void parse_adapt(TableReader r, AdaptConfig& a) {
   r.read("velocity_tolerance_relative", a.velocity_tolerance_relative);
   r.read("wall_level", a.wall_level);
   r.read("membrane_band", a.membrane_band);
+  r.read("membrane_weight", a.membrane_weight);
   r.read("interval", a.interval);
   r.read("max_interval", a.max_interval);
   r.read("interval_time", a.interval_time);

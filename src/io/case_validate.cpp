@@ -142,6 +142,7 @@ void check_adapt(const CaseConfig& c, const Checker& ck) {
     ck.fail("adapt.wall_level", fmt::format("{}", a.wall_level),
             fmt::format("must be <= adapt.max_level ({})", a.max_level));
   ck.at_least("adapt.membrane_band", a.membrane_band, 0);
+  ck.at_least("adapt.membrane_weight", a.membrane_weight, 1);
   ck.at_least("adapt.interval", a.interval, 1);
   if (a.max_interval != 0 && a.max_interval < a.interval)
     ck.fail("adapt.max_interval", fmt::format("{}", a.max_interval),

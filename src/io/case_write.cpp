@@ -79,6 +79,7 @@ std::string to_toml(const CaseConfig& c) {
   line("velocity_tolerance_relative", toml_number(c.adapt.velocity_tolerance_relative));
   line("wall_level", fmt::format("{}", c.adapt.wall_level));
   line("membrane_band", fmt::format("{}", c.adapt.membrane_band));
+  line("membrane_weight", fmt::format("{}", c.adapt.membrane_weight));
   line("interval", fmt::format("{}", c.adapt.interval));
   line("max_interval", fmt::format("{}", c.adapt.max_interval));
   line("interval_time", toml_number(c.adapt.interval_time));

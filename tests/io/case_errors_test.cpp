@@ -141,6 +141,8 @@ TEST(io_case_errors, NegativeReViscosityOrCfl) {
               HasSubstr("adapt.max_interval_time = 0.002: must be 0 (off) or >= adapt.interval_time (0.004)"));
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmax_interval_time = 0.002\n"),
               HasSubstr("adapt.max_interval_time = 0.002: needs adapt.interval_time > 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmembrane_weight = 0\n"),
+              HasSubstr("adapt.membrane_weight = 0: must be >= 1"));
 }
 
 // The ratios are read (the message quotes the value) but refused: nothing marks the inner

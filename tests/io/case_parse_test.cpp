@@ -43,6 +43,7 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
   EXPECT_EQ(c.adapt.velocity_tolerance_relative, 0.02);
   EXPECT_EQ(c.adapt.wall_level, 5);
   EXPECT_EQ(c.adapt.membrane_band, 3);
+  EXPECT_EQ(c.adapt.membrane_weight, 6);
   EXPECT_EQ(c.adapt.interval, 2);
   EXPECT_EQ(c.adapt.max_interval, 6);
 
