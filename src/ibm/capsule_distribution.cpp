@@ -260,8 +260,14 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
 std::int64_t CapsuleCoupling::leaf_weight(int level, tree::Key key, std::int64_t band_weight) const {
   if (level != ns_.tree().max_level()) return 1;
   const tree::Coords<3> ijk = tree::morton_decode<3>(key);
-  for (const MembraneTags& tags : bands_)
-    if (tags.level() == level && tags.tagged(level, ijk)) return band_weight;
+  auto in_band = [&](const MembraneTags& tags) { return tags.level() == level && tags.tagged(level, ijk); };
+  if (distributed()) {
+    for (const MembraneTags& tags : bands_)
+      if (in_band(tags)) return band_weight;
+  } else {
+    for (const auto& c : capsules_)
+      if (in_band(c->tags)) return band_weight;
+  }
   return 1;
 }
 

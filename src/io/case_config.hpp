@@ -86,7 +86,7 @@ struct AdaptConfig {
   int membrane_band = 4;             // cells of max_level forced around membrane nodes
   // N ranks: the partition weight of a max-level leaf in a membrane's band, that of a fluid
   // leaf being 1 (spreading and interpolation make it several fluid cells' work).
-  int membrane_weight = 4;
+  int membrane_weight = 3;
   int interval = 1;                  // steps between adaptations
   // > interval: with capsules, an adaptation may wait up to this many steps while the
   // membrane nodes barely move (ibm::CapsuleCoupling::may_wait); 0: every interval.

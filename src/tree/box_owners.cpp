@@ -47,8 +47,7 @@ struct Visitor {
   std::array<std::array<std::int64_t, 2>, D> box{};
   std::vector<int>& ranks;
 
-  void add_range(Key begin, Key end) {  // the owners of positions [begin, end)
-    const int first = partition.owner(begin), last = partition.owner(end - 1);
+  void add_owners(int first, int last) {  // the ranks first..last that own positions
     for (int r = first; r <= last; ++r)
       if (partition.split(r) < partition.split(r + 1)) ranks.push_back(r);
   }
@@ -61,9 +60,11 @@ struct Visitor {
       if (b1 < box[d][0] || b0 > box[d][1]) return;
       inside = inside && b0 >= box[d][0] && b1 <= box[d][1];
     }
-    if (inside || k == level) {
-      const Key begin = curve_position<D>(k, morton_encode<D>(c), options.max_level);
-      add_range(begin, begin + span_of<D>(k, options.max_level));
+    // A block one rank owns whole needs no descent, whatever part of it the box covers.
+    const Key begin = curve_position<D>(k, morton_encode<D>(c), options.max_level);
+    const int first = partition.owner(begin), last = partition.owner(begin + span_of<D>(k, options.max_level) - 1);
+    if (inside || k == level || first == last) {
+      add_owners(first, last);
       return;
     }
     for (int b = 0; b < (1 << D); ++b) {

@@ -566,5 +566,32 @@ TEST(Coupling, RequiredLevelsOfWallsAndMembrane) {
   }
 }
 
+// The partition weight of a leaf (N ranks): the max-level leaves of the band the last
+// adaptation refined weigh what they are given, every other leaf 1.
+TEST(Coupling, BandLeavesWeighTheirMembraneWork) {
+  SeedRun r{.max_level = 4, .mesh_level = 3};
+  tree::Tree<3> t({.roots = {4, 1, 1}, .root_size = 2.0, .origin = {-4, -1, -1}, .max_level = 4});
+  fluid::NavierStokes<3> ns(t, test::seed_flow(r));
+  CapsuleCoupling cc(ns);
+  fluid::Adaptation<3> adaptation(ns, {.min_level = 0});
+  adaptation.set_bodies(&cc);
+  cc.add_capsule(membrane::MembraneModel(membrane::make_icosphere({.level = 3, .radius = 0.5}), {.gs = 20}),
+                 membrane::make_icosphere({.level = 3, .radius = 0.5}).nodes);
+  (void)adaptation.refine_initial();
+  const double h = 2.0 / 16;
+  std::int64_t heavy = 0;
+  for (const Index c : t.leaves()) {
+    const int l = t.level_of(c);
+    const std::int64_t w = cc.leaf_weight(l, tree::morton_encode<3>(t.coords(c)), 7);
+    const tree::Box<3> b = t.box(c);
+    const bool in_band = l == 4 && cc.required_level(b) == 4;
+    EXPECT_EQ(w, in_band ? 7 : 1) << "leaf of level " << l;
+    const Eigen::Vector3d centre{(b.lo[0] + b.hi[0]) / 2, (b.lo[1] + b.hi[1]) / 2, (b.lo[2] + b.hi[2]) / 2};
+    if (std::abs(centre.norm() - 0.5) < 2 * h) EXPECT_EQ(w, 7) << "a leaf on the membrane";
+    heavy += w == 7;
+  }
+  EXPECT_GT(heavy, 1000);
+}
+
 }  // namespace
 }  // namespace capsflow::ibm
