@@ -392,6 +392,23 @@ void CapsuleCoupling::predict_midpoint(int step) {
   times_.interpolation += seconds_since(t0);
 }
 
+double CapsuleCoupling::fluid_step(CouplingStep& out) {
+  face_seconds_ = 0.0;
+  const auto t0 = Clock::now();
+  try {
+    out.fluid = ns_.step();
+  } catch (...) {
+    force_ready_ = false;  // the spread force belongs to the step that failed
+    throw;
+  }
+  force_ready_ = false;
+  const double previous_dt = last_dt_;
+  last_dt_ = out.fluid.dt;
+  times_.fluid += seconds_since(t0) - face_seconds_;  // the face force is spread inside the step
+  times_.spreading += face_seconds_;
+  return previous_dt;
+}
+
 CouplingStep CapsuleCoupling::step() {
   const int step = static_cast<int>(steps_ + 1);
   if (distributed()) return distributed_step(step);
@@ -399,19 +416,7 @@ CouplingStep CapsuleCoupling::step() {
   if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);
   compute_forces(step);
   spread_forces(step);
-  face_seconds_ = 0.0;
-  const auto t0 = Clock::now();
-  try {
-    out.fluid = ns_.step();
-  } catch (...) {
-    force_ready_ = false;
-    throw;
-  }
-  force_ready_ = false;
-  const double previous_dt = last_dt_;
-  last_dt_ = out.fluid.dt;
-  times_.fluid += seconds_since(t0) - face_seconds_;
-  times_.spreading += face_seconds_;
+  const double previous_dt = fluid_step(out);
   interpolate_velocities(step);
   advance_nodes(step, out.fluid.dt, previous_dt);
   ++steps_;

@@ -259,6 +259,10 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // X += dt (the scheme's motion) for every owned capsule, each new position checked first.
   void advance_nodes(int step, double dt, double previous_dt);
 
+  // The flow step between spreading and interpolation, timed apart from the face spreading it
+  // calls; returns the dt of the step before it (the node update's AB2 reads it).
+  double fluid_step(CouplingStep& out);
+
   // N ranks (capsule_distribution.cpp).
   CouplingStep distributed_step(int step);
   void migrate();  // owned capsules whose centroid left this rank's cells go to its owner

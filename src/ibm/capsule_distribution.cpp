@@ -233,19 +233,7 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
     interpolate_routed(step, *faces, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.start_velocity; });
     times_.interpolation += seconds_since(t0);
   }
-  face_seconds_ = 0.0;
-  t0 = Clock::now();
-  try {
-    out.fluid = ns_.step();
-  } catch (...) {
-    force_ready_ = false;
-    throw;
-  }
-  force_ready_ = false;
-  const double previous_dt = last_dt_;
-  last_dt_ = out.fluid.dt;
-  times_.fluid += seconds_since(t0) - face_seconds_;
-  times_.spreading += face_seconds_;
+  const double previous_dt = fluid_step(out);
   t0 = Clock::now();
   for (int k = 0; k < num_capsules(); ++k)
     if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);
