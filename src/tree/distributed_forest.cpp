@@ -10,6 +10,7 @@
 #include "parallel/all_to_all.hpp"
 #include "parallel/reduce.hpp"
 #include "tree/leaf_migration.hpp"
+#include "tree/radix_sort.hpp"
 #include "tree/tree_from_cells.hpp"
 
 namespace capsflow::tree {
@@ -146,7 +147,7 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
   // step stays within 2 cells of the ancestors' centres).
   for (int l = top; l >= 0; --l) {
     auto& keys = centres[static_cast<std::size_t>(l)];
-    std::sort(keys.begin(), keys.end());
+    radix_sort(keys, [](Key k) { return k; });
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     if (l == 0) break;
     auto& parents = centres[static_cast<std::size_t>(l) - 1];
@@ -206,7 +207,7 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
     }
     std::vector<Key>().swap(keys);
   }
-  std::sort(asked.begin(), asked.end(), curve_less);
+  sort_in_curve_order(asked);
   asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
   std::erase_if(asked, [&](const CurveCell& c) { return c.level < replicated_levels_; });
 
@@ -291,7 +292,7 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
       }
     }
   }
-  std::sort(required_.begin(), required_.end(), curve_less);
+  sort_in_curve_order(required_);
   required_.erase(std::unique(required_.begin(), required_.end()), required_.end());
 }
 
@@ -615,8 +616,7 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
     const Level<D>& lv = t.level(l);
     old_leaves.push_back({{curve_position<D>(l, lv.keys[static_cast<std::size_t>(c - lv.base)], top), l}, c});
   }
-  std::sort(old_leaves.begin(), old_leaves.end(),
-            [](const auto& a, const auto& b) { return curve_less(a.first, b.first); });
+  sort_in_curve_order(old_leaves, [](const auto& x) -> const CurveCell& { return x.first; });
   std::vector<CurveCell> cells;
   std::vector<double> values;
   AdaptCounts counts;
@@ -778,7 +778,7 @@ std::optional<Tree<D>> DistributedForest<D>::gather_on_root(const Tree<D>& local
   for (std::size_t i = 0; i < all.size(); ++i) all[i] = {all_cells[2 * i], static_cast<int>(all_cells[2 * i + 1])};
   // Each rank's leaves come level by level, not in curve order.
   std::vector<CurveCell> sorted = all;
-  std::sort(sorted.begin(), sorted.end(), curve_less);
+  sort_in_curve_order(sorted);
   Tree<D> whole = tree_refined_to<D>(options_, sorted);
   for (int f = 0; f < fields; ++f) (void)whole.add_field(local.field_spec(f));
   for (std::size_t i = 0; i < all.size(); ++i) {
@@ -800,7 +800,7 @@ std::unique_ptr<DistributedForest<D>> distribute(const parallel::Comm& comm, Tre
       if (lv.leaf[static_cast<std::size_t>(i)])
         leaves.push_back({curve_position<D>(l, lv.keys[static_cast<std::size_t>(i)], top), l});
   }
-  std::sort(leaves.begin(), leaves.end(), curve_less);
+  sort_in_curve_order(leaves);
   // Every rank holds the forest: rank 0 passes every leaf, the others none (by_weight is
   // collective and takes each rank's own leaves in rank order).
   std::vector<Key> positions;
