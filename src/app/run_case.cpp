@@ -32,6 +32,7 @@
 #include "io/diagnostics_csv.hpp"
 #include "io/pvd_series.hpp"
 #include "io/vtu_tree.hpp"
+#include "parallel/collective_counts.hpp"
 #include "parallel/comm.hpp"
 #include "tree/distributed_forest.hpp"
 
@@ -165,6 +166,7 @@ class FlowRun {
 
     const auto start = std::chrono::steady_clock::now();
     const long first_step = step;  // a restart times only its own steps
+    const parallel::CollectiveCounts collectives_before = parallel::collective_counts();
     const double t_end = c.time.t_end;
     // cfl > 0 with capsules: dt at most kSafety of the coupling's measured stability limit.
     const double membrane_cap = capsules_ && c.time.cfl > 0.0
@@ -235,6 +237,7 @@ class FlowRun {
       if (signal_on_any_rank() != 0) stop_interrupted(step, st.dt);
     }
     progress_.finish();
+    const parallel::CollectiveCounts collectives_after = parallel::collective_counts();
     if (c.output.cells_csv) write_cells_csv();
     if (capsules_) {
       capsules_->write_final(out_);  // collective: rank 0 writes
@@ -250,6 +253,12 @@ class FlowRun {
                      static_cast<long long>(moves), double(words) / double(std::max<long>(1, step - first_step)),
                      static_cast<long long>(capsules_seen), capsules_->coupling().num_capsules(),
                      static_cast<long long>(nodes_seen));
+      if (!request_.quiet && forest_) {  // what the weak-scaling model multiplies (every rank makes the same calls)
+        const double n = double(std::max<long>(1, step - first_step));
+        std::fprintf(stderr, "collectives per step: %.1f reductions, %.2f all-to-all exchanges\n",
+                     double(collectives_after.reductions - collectives_before.reductions) / n,
+                     double(collectives_after.all_to_all - collectives_before.all_to_all) / n);
+      }
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
         const double n = double(std::max<long>(1, step - first_step));

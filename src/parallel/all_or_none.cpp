@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "parallel/collective_counts.hpp"
+
 namespace capsflow::parallel {
 
 void all_or_none(const Comm& comm, const std::function<void()>& work) {
@@ -24,6 +26,7 @@ void all_or_none(const Comm& comm, const std::function<void()>& work) {
     message = "an unknown error";
   }
   int first = failed ? comm.rank() : comm.size();
+  detail::count_reduction();
   MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm.handle());
   if (first == comm.size()) return;
   int length = static_cast<int>(message.size());

@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "parallel/collective_counts.hpp"
+
 namespace capsflow::parallel {
 
 namespace {
@@ -17,6 +19,7 @@ void check(int code, const char* what) {
 std::vector<std::vector<std::uint64_t>> all_to_all(const parallel::Comm& comm,
                                                    const std::vector<std::vector<std::uint64_t>>& send) {
   const int p = comm.size();
+  detail::count_all_to_all();
   std::vector<int> send_counts(static_cast<std::size_t>(p)), recv_counts(static_cast<std::size_t>(p));
   for (int q = 0; q < p; ++q) send_counts[static_cast<std::size_t>(q)] = static_cast<int>(send[static_cast<std::size_t>(q)].size());
   check(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm.handle()), "MPI_Alltoall");

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "parallel/collective_counts.hpp"
+
 namespace capsflow::parallel {
 
 namespace {
@@ -39,46 +41,49 @@ MPI_Op nan_keeping_op() {
   return op;
 }
 
+// In place, counted (collective_counts.hpp).
+void allreduce(void* values, int count, MPI_Datatype type, MPI_Op op, const Comm& comm, const char* what) {
+  detail::count_reduction();
+  check(MPI_Allreduce(MPI_IN_PLACE, values, count, type, op, comm.handle()), what);
+}
+
 }  // namespace
 
 double global_sum(const Comm& comm, const ExactSum& local) {
   if (!comm.distributed()) return local.value();
   auto words = local.words();
-  check(MPI_Allreduce(MPI_IN_PLACE, words.data(), ExactSum::kWords, MPI_INT64_T, MPI_SUM, comm.handle()),
-        "MPI_Allreduce (sum)");
+  allreduce(words.data(), ExactSum::kWords, MPI_INT64_T, MPI_SUM, comm, "MPI_Allreduce (sum)");
   return ExactSum::from_words(words).value();
 }
 
 std::int64_t global_sum(const Comm& comm, std::int64_t local) {
   if (comm.distributed())
-    check(MPI_Allreduce(MPI_IN_PLACE, &local, 1, MPI_INT64_T, MPI_SUM, comm.handle()), "MPI_Allreduce (sum)");
+    allreduce(&local, 1, MPI_INT64_T, MPI_SUM, comm, "MPI_Allreduce (sum)");
   return local;
 }
 
 double global_max(const Comm& comm, double local) {
   if (comm.distributed())
-    check(MPI_Allreduce(MPI_IN_PLACE, &local, 1, MPI_DOUBLE, nan_keeping_op<true>(), comm.handle()),
-          "MPI_Allreduce (max)");
+    allreduce(&local, 1, MPI_DOUBLE, nan_keeping_op<true>(), comm, "MPI_Allreduce (max)");
   return local;
 }
 
 double global_min(const Comm& comm, double local) {
   if (comm.distributed())
-    check(MPI_Allreduce(MPI_IN_PLACE, &local, 1, MPI_DOUBLE, nan_keeping_op<false>(), comm.handle()),
-          "MPI_Allreduce (min)");
+    allreduce(&local, 1, MPI_DOUBLE, nan_keeping_op<false>(), comm, "MPI_Allreduce (min)");
   return local;
 }
 
 std::int64_t global_max(const Comm& comm, std::int64_t local) {
   if (comm.distributed())
-    check(MPI_Allreduce(MPI_IN_PLACE, &local, 1, MPI_INT64_T, MPI_MAX, comm.handle()), "MPI_Allreduce (max)");
+    allreduce(&local, 1, MPI_INT64_T, MPI_MAX, comm, "MPI_Allreduce (max)");
   return local;
 }
 
 bool global_any(const Comm& comm, bool local) {
   int v = local ? 1 : 0;
   if (comm.distributed())
-    check(MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_INT, MPI_LOR, comm.handle()), "MPI_Allreduce (any)");
+    allreduce(&v, 1, MPI_INT, MPI_LOR, comm, "MPI_Allreduce (any)");
   return v != 0;
 }
 

@@ -397,6 +397,50 @@ void DistributedForest<D>::attach(Tree<D>& t) {
     }
   }
   t.set_distribution(this, std::move(roles), this);
+  if constexpr (kAssertions) check_plan(t);
+}
+
+template <int D>
+void DistributedForest<D>::check_plan(const Tree<D>& t) const {
+  const int top = t.max_level();
+  // 1. What this rank sends a peer is what the peer expects from it, cell for cell: each
+  //    side's lists of the other go to the other and are compared there.
+  std::vector<std::vector<std::uint64_t>> sends(static_cast<std::size_t>(comm_.size()));
+  for (const PeerCells& pc : peer_cells_)
+    for (const CurveCell& c : pc.send) {
+      sends[static_cast<std::size_t>(pc.rank)].push_back(c.position);
+      sends[static_cast<std::size_t>(pc.rank)].push_back(static_cast<std::uint64_t>(c.level));
+    }
+  const auto sent_to_me = parallel::all_to_all(comm_, sends);
+  for (int q = 0; q < comm_.size(); ++q) {
+    std::vector<std::uint64_t> expected;
+    for (const PeerCells& pc : peer_cells_)
+      if (pc.rank == q)
+        for (const CurveCell& c : pc.receive) {
+          expected.push_back(c.position);
+          expected.push_back(static_cast<std::uint64_t>(c.level));
+        }
+    CAPSFLOW_ASSERT(expected == sent_to_me[static_cast<std::size_t>(q)],
+                    fmt::format("distributed forest: rank {} sends rank {} other cells than it expects",
+                                q, comm_.rank()));
+  }
+  // 2. Every cell of the local tree within `width` cells of an owned cell, at its level, is
+  //    owned or a ghost: a stencil never reads a placeholder (every local cell is a cell of
+  //    the global forest, and the plan asked for all of those near owned cells).
+  for (int l = 0; l <= t.depth(); ++l) {
+    const Level<D>& lv = t.level(l);
+    for (Index i = 0; i < lv.n_active; ++i) {
+      if (!t.owns(lv.base + i)) continue;
+      for_each_stencil_cell<D>(options_, l, morton_decode<D>(lv.keys[static_cast<std::size_t>(i)]), width_,
+                               [&](const CurveCell& x) {
+                                 const Index n = t.find(l, morton_decode<D>(key_of<D>(x, top)));
+                                 CAPSFLOW_ASSERT(n == kNone || n >= lv.active_end() || t.holds(n),
+                                                 fmt::format("distributed forest: rank {}: cell (position {}, level {}) "
+                                                             "next to an owned cell is neither owned nor a ghost",
+                                                             comm_.rank(), x.position, l));
+                               });
+    }
+  }
 }
 
 template <int D>

@@ -141,6 +141,10 @@ class DistributedForest final : public Distribution, public DistributedAdaptatio
   // field after the other.
   template <class Pick>
   void exchange_lists(std::span<const Peer> peers, int tag, Fields fields, Pick pick) const;
+  // Checked builds, after attach(): the send and receive lists agree on both sides and no
+  // stencil of an owned cell reaches a placeholder (p4est checks its ghost layer so).
+  // Collective.
+  void check_plan(const Tree<D>& t) const;
   // Builds the plan for these owned leaves (the constructor's work, again after an adapt).
   void plan(const Partition& partition, std::span<const CurveCell> owned_leaves);
   // The weight of each of these leaves.

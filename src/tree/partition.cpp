@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "parallel/collective_counts.hpp"
 #include "parallel/reduce.hpp"
 
 namespace capsflow::tree {
@@ -71,8 +72,10 @@ Partition Partition::by_weight(const parallel::Comm& comm, std::span<const Key> 
     split[q] = std::min(split[q], positions[i]);
     prefix += weights[i];
   }
-  if (comm.distributed())
+  if (comm.distributed()) {
+    parallel::detail::count_reduction();
     check(MPI_Allreduce(MPI_IN_PLACE, split.data(), ranks, MPI_UINT64_T, MPI_MIN, comm.handle()), "MPI_Allreduce");
+  }
   split[0] = 0;  // rank 0 starts the curve, whatever its first leaf
   for (int q = ranks - 1; q >= 1; --q) split[q] = std::min(split[q], split[q + 1]);  // empty ranks
   return Partition(std::move(split));

@@ -587,7 +587,9 @@ TEST(Coupling, BandLeavesWeighTheirMembraneWork) {
     const bool in_band = l == 4 && cc.required_level(b) == 4;
     EXPECT_EQ(w, in_band ? 7 : 1) << "leaf of level " << l;
     const Eigen::Vector3d centre{(b.lo[0] + b.hi[0]) / 2, (b.lo[1] + b.hi[1]) / 2, (b.lo[2] + b.hi[2]) / 2};
-    if (std::abs(centre.norm() - 0.5) < 2 * h) EXPECT_EQ(w, 7) << "a leaf on the membrane";
+    if (std::abs(centre.norm() - 0.5) < 2 * h) {
+      EXPECT_EQ(w, 7) << "a leaf on the membrane";
+    }
     heavy += w == 7;
   }
   EXPECT_GT(heavy, 1000);

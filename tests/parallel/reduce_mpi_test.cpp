@@ -5,6 +5,8 @@
 #include <random>
 #include <vector>
 
+#include "parallel/all_to_all.hpp"
+#include "parallel/collective_counts.hpp"
 #include "parallel/reduce.hpp"
 
 namespace capsflow::parallel {
@@ -29,6 +31,22 @@ TEST(Reduce, ExactSumIsTheSerialSumBitForBit) {
     if (static_cast<int>(i % static_cast<std::size_t>(comm.size())) == comm.rank()) mine.add(xs[i]);
   }
   EXPECT_EQ(global_sum(comm, mine), all.value());
+}
+
+// The counts the weak-scaling model multiplies: one per collective call that reaches MPI (on
+// one rank without a distributed communicator, none), the same on every rank.
+TEST(Reduce, CollectivesAreCountedOncePerCall) {
+  const Comm comm = Comm::world();
+  const CollectiveCounts before = collective_counts();
+  (void)global_sum(comm, std::int64_t{1});
+  (void)global_max(comm, 1.0);
+  (void)global_any(comm, false);
+  (void)all_to_all(comm, std::vector<std::vector<std::uint64_t>>(static_cast<std::size_t>(comm.size())));
+  const CollectiveCounts after = collective_counts();
+  EXPECT_EQ(after.reductions - before.reductions, comm.distributed() ? 3 : 0);
+  EXPECT_EQ(after.all_to_all - before.all_to_all, 1);
+  EXPECT_EQ(global_sum(comm, after.reductions), comm.size() * after.reductions) << "every rank counts alike";
+  EXPECT_EQ(global_max(comm, after.reductions), after.reductions) << "every rank counts alike";
 }
 
 TEST(Reduce, IntegerSumMaxAndAny) {
