@@ -19,17 +19,20 @@ The model, at P ranks each holding one capsule and the same fluid as the 1-rank 
   on (a capsule across a corner of the Morton parts reaches 8 in 3D), at beta per byte, one
   message per neighbour (min(26, P - 1)) at alpha;
 - reductions: 2 log2 P latencies each (recursive doubling);
-- all-to-all exchanges (MPI_Alltoall of the counts: log2 P latencies and 4 P bytes; then
-  MPI_Alltoallv, whose lists are empty for all but the neighbours): Open MPI's pairwise
-  algorithm exchanges with every rank, P - 1 latencies ("dense"); a sparse exchange (the
-  neighbours alone, found by a non-blocking consensus, Hoefler et al. 2010) would cost
-  min(26, P - 1) latencies and 2 log2 P for its barrier ("sparse");
+- all-to-all exchanges (parallel::all_to_all, the leaf migration: MPI_Alltoall of the
+  counts, log2 P latencies and 4 P bytes, then MPI_Alltoallv, which Open MPI runs pairwise
+  with every rank: P - 1 latencies), left per adaptation on the replicated levels' plan and
+  the leaf migration;
+- sparse exchanges (parallel::sparse_exchange: the node routing, the returned velocities,
+  the capsule migration, the plan's questions and answers): min(26, P - 1) latencies and
+  2 log2 P for the non-blocking barrier (the words are counted above); the last column is
+  the efficiency if they were all-to-all exchanges, as before;
 - the partition's split keys (one MPI_Allreduce of P words per adaptation) at 2 log2 P
   latencies and 16 P bytes;
 - the flow's own messages are in tools/mpi_weak_scaling_model.py (0.92 at 1024 ranks), not
   repeated here.
-Prints per P the step time's terms, the efficiency with dense and with sparse exchanges, and
-the term that stops scaling first.
+Prints per P the step time's terms and the efficiency, and the term that stops scaling
+first.
 """
 import math
 import re
@@ -45,9 +48,11 @@ def read(path):
         sys.exit(f"{path}: no 'time per step' line")
     out["stages_ms"] = [float(x) for x in m.groups()[:5]]
     out["adaptations"] = int(m.group(6))
-    m = re.search(r"collectives per step: ([\d.]+) reductions, ([\d.]+) all-to-all", text)
+    m = re.search(r"collectives per step: ([\d.]+) reductions, ([\d.]+) all-to-all exchanges"
+                  r"(?:, ([\d.]+) sparse exchanges)?", text)
     if m:
         out["reductions"], out["all_to_all"] = float(m.group(1)), float(m.group(2))
+        out["sparse"] = float(m.group(3) or 0.0)
     m = re.search(r"at most (\d+) words sent a step by a rank, at most (\d+) of the (\d+) capsules", text)
     if m:
         out["words"], out["heard"], out["capsules"] = int(m.group(1)), int(m.group(2)), int(m.group(3))
@@ -85,23 +90,24 @@ def main():
         if "reductions" not in r or "words" not in r:
             sys.exit("a 2-4 rank log lacks the collectives or the capsule traffic line")
     # Per step without adaptation, and what one adaptation adds (every step in the adapting runs).
-    red_step = max(r["reductions"] for r in runs_s)
-    a2a_step = max(r["all_to_all"] for r in runs_s)
-    per_adapt = [(a["reductions"] - red_step, a["all_to_all"] - a2a_step) for a in runs_a]
-    red_adapt = max(x[0] for x in per_adapt)
-    a2a_adapt = max(x[1] for x in per_adapt)
+    def per_step_and_adaptation(key):
+        step = max(r[key] for r in runs_s)
+        return step, max(a[key] - step for a in runs_a)
+    red_step, red_adapt = per_step_and_adaptation("reductions")
+    a2a_step, a2a_adapt = per_step_and_adaptation("all_to_all")
+    sparse_step, sparse_adapt = per_step_and_adaptation("sparse")
     words_per_capsule = max(r["words"] / r["heard"] for r in runs_s)
     heard_measured = max(r["heard"] for r in runs_s)
     membrane, spreading, fluid, interpolation, adapt = base["stages_ms"]
     adapt_every = adapt * base["steps"] / max(1, base["adaptations"])  # ms per adaptation
     compute = 1e-3 * (membrane + spreading + fluid + interpolation + adapt_every / interval)
-    print(f"measured: one rank {compute * 1e3:.1f} ms a step (adapting every {interval:g} steps); "
-          f"per step {red_step:.1f} reductions and {a2a_step:.2f} all-to-all exchanges, an adaptation adds "
-          f"{red_adapt:.1f} and {a2a_adapt:.2f}; the busiest rank sends {words_per_capsule:.0f} words a step "
-          f"per capsule it hears of (at most {heard_measured} heard on 2-4 ranks)")
+    print(f"measured: one rank {compute * 1e3:.1f} ms a step (adapting every {interval:g} steps); per step "
+          f"{red_step:.1f} reductions, {a2a_step:.2f} all-to-all and {sparse_step:.2f} sparse exchanges, an "
+          f"adaptation adds {red_adapt:.1f}, {a2a_adapt:.2f} and {sparse_adapt:.2f}; the busiest rank sends "
+          f"{words_per_capsule:.0f} words a step per capsule it hears of (at most {heard_measured} heard on 2-4 ranks)")
     print(f"alpha = {alpha:g} s, beta = {beta:g} s/B\n")
-    head = (f"{'P':>5} {'compute ms':>10} {'words ms':>9} {'reduce ms':>9} {'a2a dense ms':>12} "
-            f"{'a2a sparse ms':>13} {'split ms':>8} {'eff dense':>9} {'eff sparse':>10}")
+    head = (f"{'P':>5} {'compute ms':>10} {'words ms':>9} {'reduce ms':>9} {'a2a ms':>8} {'sparse ms':>9} "
+            f"{'split ms':>8} {'efficiency':>10} {'all dense':>9}")
     print(head)
     first = last = None
     for p in [2, 4, 8, 64, 512, 1024]:
@@ -110,20 +116,24 @@ def main():
         heard = heard_measured if p < 8 else 8
         words = neighbours * alpha + beta * 8 * words_per_capsule * heard
         reductions = (red_step + red_adapt / interval) * 2 * log * alpha
-        calls = a2a_step + a2a_adapt / interval
-        counts = log * alpha + beta * 4 * p
-        dense = calls * (counts + (p - 1) * alpha)
-        sparse = calls * (counts + neighbours * alpha + 2 * log * alpha)
+        dense_calls = a2a_step + a2a_adapt / interval
+        sparse_calls = sparse_step + sparse_adapt / interval
+        counts = log * alpha + beta * 4 * p  # MPI_Alltoall of the counts
+        dense_cost = counts + (p - 1) * alpha
+        dense = dense_calls * dense_cost
+        sparse = sparse_calls * (neighbours * alpha + 2 * log * alpha)
         split = (2 * log * alpha + beta * 16 * p) / interval
-        terms = {"capsule words": words, "reductions": reductions, "all-to-all (dense)": dense, "split keys": split}
-        eff_dense = compute / (compute + words + reductions + dense + split)
-        eff_sparse = compute / (compute + words + reductions + sparse + split)
+        terms = {"capsule words": words, "reductions": reductions, "all-to-all exchanges": dense,
+                 "sparse exchanges": sparse, "split keys": split}
+        eff = compute / (compute + words + reductions + dense + sparse + split)
+        # What it was with every exchange an all_to_all.
+        eff_dense = compute / (compute + words + reductions + (dense_calls + sparse_calls) * dense_cost + split)
         big = max(terms, key=terms.get)
         if first is None and terms[big] > 0.05 * compute:
             first = (p, big, terms[big])
         last = (p, big, terms[big])
-        print(f"{p:>5} {compute * 1e3:>10.2f} {words * 1e3:>9.3f} {reductions * 1e3:>9.3f} {dense * 1e3:>12.3f} "
-              f"{sparse * 1e3:>13.3f} {split * 1e3:>8.3f} {eff_dense:>9.2f} {eff_sparse:>10.2f}")
+        print(f"{p:>5} {compute * 1e3:>10.2f} {words * 1e3:>9.3f} {reductions * 1e3:>9.3f} {dense * 1e3:>8.3f} "
+              f"{sparse * 1e3:>9.3f} {split * 1e3:>8.3f} {eff:>10.2f} {eff_dense:>9.2f}")
     if first:
         print(f"\nfirst term above 5% of the compute: {first[1]} at P = {first[0]} ({first[2] * 1e3:.2f} ms a step)")
     else:

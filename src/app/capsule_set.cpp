@@ -13,7 +13,7 @@
 #include "membrane/diagnostics.hpp"
 #include "membrane/shapes.hpp"
 #include "parallel/all_or_none.hpp"
-#include "parallel/all_to_all.hpp"
+#include "parallel/sparse_exchange.hpp"
 
 namespace capsflow::app {
 
@@ -145,7 +145,7 @@ std::vector<double> CapsuleSet::rows(long step, double t) const {
   // Rank 0 gathers every capsule's row and orders them by capsule.
   std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm_.size()));
   for (const double v : mine) send[0].push_back(std::bit_cast<std::uint64_t>(v));
-  const auto received = parallel::all_to_all(comm_, send);
+  const auto received = parallel::sparse_exchange(comm_, send);
   if (!comm_.is_root()) return {};
   const std::size_t width = columns().size();
   std::vector<std::vector<double>> all;

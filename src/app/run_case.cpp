@@ -255,9 +255,10 @@ class FlowRun {
                      static_cast<long long>(nodes_seen));
       if (!request_.quiet && forest_) {  // what the weak-scaling model multiplies (every rank makes the same calls)
         const double n = double(std::max<long>(1, step - first_step));
-        std::fprintf(stderr, "collectives per step: %.1f reductions, %.2f all-to-all exchanges\n",
+        std::fprintf(stderr, "collectives per step: %.1f reductions, %.2f all-to-all exchanges, %.2f sparse exchanges\n",
                      double(collectives_after.reductions - collectives_before.reductions) / n,
-                     double(collectives_after.all_to_all - collectives_before.all_to_all) / n);
+                     double(collectives_after.all_to_all - collectives_before.all_to_all) / n,
+                     double(collectives_after.sparse_exchanges - collectives_before.sparse_exchanges) / n);
       }
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();

@@ -9,7 +9,7 @@
 
 #include "ibm/capsule_coupling.hpp"
 #include "parallel/all_or_none.hpp"
-#include "parallel/all_to_all.hpp"
+#include "parallel/sparse_exchange.hpp"
 
 namespace capsflow::ibm {
 
@@ -98,7 +98,7 @@ void CapsuleCoupling::migrate() {
     capsules_[static_cast<std::size_t>(k)].reset();
     ++migrations_;
   }
-  const auto received = parallel::all_to_all(comm, send);
+  const auto received = parallel::sparse_exchange(comm, send);
   for (const auto& w : received)
     for (const std::uint64_t* p = w.data(); p < w.data() + w.size();) {
       const auto k = static_cast<int>(*p++);
@@ -279,7 +279,7 @@ std::vector<CapsuleCoupling::SavedState> CapsuleCoupling::gather_on_root() const
     if (has_velocity) push_matrix(w, c.velocity);
     w.push_back(bits(c.work));
   }
-  const auto received = parallel::all_to_all(comm, send);
+  const auto received = parallel::sparse_exchange(comm, send);
   if (!comm.is_root()) return {};
   for (const auto& words : received)
     for (const std::uint64_t* p = words.data(); p < words.data() + words.size();) {

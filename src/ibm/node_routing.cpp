@@ -12,7 +12,7 @@
 
 #include <fmt/format.h>
 
-#include "parallel/all_to_all.hpp"
+#include "parallel/sparse_exchange.hpp"
 #include "tree/box_owners.hpp"
 
 namespace capsflow::ibm {
@@ -89,7 +89,7 @@ RoutedNodes route_nodes(const parallel::Comm& comm, const tree::Partition& parti
       out.words_sent += static_cast<std::int64_t>(send[static_cast<std::size_t>(q)].size());
     }
 
-  const auto received = parallel::all_to_all(comm, send);
+  const auto received = parallel::sparse_exchange(comm, send);
   struct Entry {
     int capsule, owner;
     std::int32_t node;
@@ -154,7 +154,7 @@ std::int64_t return_velocities(const parallel::Comm& comm, const tree::TreeOptio
   std::int64_t sent = 0;
   for (int q = 0; q < comm.size(); ++q)
     if (q != comm.rank()) sent += static_cast<std::int64_t>(send[static_cast<std::size_t>(q)].size());
-  const auto received = parallel::all_to_all(comm, send);
+  const auto received = parallel::sparse_exchange(comm, send);
 
   // Flags, not NaN markers: a blown-up flow's NaN must reach the caller's finiteness check.
   std::unordered_map<int, std::pair<const VelocityTargets*, std::vector<std::uint8_t>>> target_of;

@@ -10,6 +10,7 @@ namespace capsflow::parallel {
 struct CollectiveCounts {
   std::int64_t reductions = 0;   // MPI_Allreduce through reduce.hpp and all_or_none
   std::int64_t all_to_all = 0;   // all_to_all.hpp: one MPI_Alltoall and one MPI_Alltoallv each
+  std::int64_t sparse_exchanges = 0;  // sparse_exchange.hpp: messages to neighbours, one MPI_Ibarrier
 };
 
 [[nodiscard]] CollectiveCounts collective_counts();
@@ -17,6 +18,7 @@ struct CollectiveCounts {
 namespace detail {
 void count_reduction();
 void count_all_to_all();
+void count_sparse_exchange();
 }  // namespace detail
 
 }  // namespace capsflow::parallel

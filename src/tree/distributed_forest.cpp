@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "parallel/all_to_all.hpp"
+#include "parallel/sparse_exchange.hpp"
 #include "parallel/reduce.hpp"
 #include "tree/leaf_migration.hpp"
 #include "tree/radix_sort.hpp"
@@ -220,7 +221,7 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
     requests[static_cast<std::size_t>(q)].push_back(c.position);
     requests[static_cast<std::size_t>(q)].push_back(static_cast<std::uint64_t>(c.level));
   }
-  const auto incoming = parallel::all_to_all(comm, requests);
+  const auto incoming = parallel::sparse_exchange(comm, requests);
 
   // 3. Answer: a cell exists iff one of this rank's leaves starts at its position at its
   //    level or deeper (its first descendant); it is a leaf iff that leaf has its level.
@@ -240,7 +241,7 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
       if (answer != kAbsent) mirrors[static_cast<std::size_t>(q)].push_back(c);
     }
   }
-  const auto answered = parallel::all_to_all(comm, answers);
+  const auto answered = parallel::sparse_exchange(comm, answers);
 
   // 4. The ghosts, and the cells the local tree must hold.
   required_ = owned_;
@@ -411,7 +412,7 @@ void DistributedForest<D>::check_plan(const Tree<D>& t) const {
       sends[static_cast<std::size_t>(pc.rank)].push_back(c.position);
       sends[static_cast<std::size_t>(pc.rank)].push_back(static_cast<std::uint64_t>(c.level));
     }
-  const auto sent_to_me = parallel::all_to_all(comm_, sends);
+  const auto sent_to_me = parallel::sparse_exchange(comm_, sends);
   for (int q = 0; q < comm_.size(); ++q) {
     std::vector<std::uint64_t> expected;
     for (const PeerCells& pc : peer_cells_)

@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "parallel/collective_counts.hpp"
+
 namespace capsflow::tree {
 
 namespace {
@@ -40,6 +42,9 @@ MigratedLeaves migrate_leaves(const parallel::Comm& comm, const Partition& targe
     ++cells_out[static_cast<std::size_t>(q)];
   }
   std::vector<int> cells_in(static_cast<std::size_t>(p));
+  // Counted as two all-to-all exchanges (its two MPI_Alltoallv, collective_counts.hpp).
+  parallel::detail::count_all_to_all();
+  parallel::detail::count_all_to_all();
   check(MPI_Alltoall(cells_out.data(), 1, MPI_INT, cells_in.data(), 1, MPI_INT, comm.handle()), "MPI_Alltoall");
 
   // Two words per leaf (position, level), `components` doubles per leaf; runs are contiguous
