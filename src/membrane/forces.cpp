@@ -121,23 +121,25 @@ double MembraneModel::assemble(const Law& law, const Eigen::Matrix3Xd& x, Eigen:
   const ReferencePoint* ref = reference_points_.data();
   const std::int64_t n_elements = mesh_.element_count();
   const std::int64_t n_nodes = mesh_.node_count();
-  double energy = 0.0;
+  // Element energies summed afterwards in element order: the energy is then the same to the
+  // last bit for any thread count (an OpenMP reduction's order follows the threads).
+  std::vector<double> energies(static_cast<std::size_t>(n_elements));
   std::int64_t bad_slot = -1;
 #pragma omp parallel
   {
     std::array<Eigen::Vector3d, Nn> f;
     // Phase 1: element kernels, each element writing only its own buffer entries.
-#pragma omp for schedule(static) reduction(+ : energy)
+#pragma omp for schedule(static)
     for (std::int64_t slot = 0; slot < n_elements; ++slot) {
       const std::int32_t* nodes = conn + slot * Nn;
       const auto xe = gather<Nn>(x, nodes);
       ElementStatus status;
       if (forces != nullptr) {
-        energy += element_forces<Nn>(law, xe, d, ref + slot * nq, nq, f, status);
+        energies[static_cast<std::size_t>(slot)] = element_forces<Nn>(law, xe, d, ref + slot * nq, nq, f, status);
         // Each element owns its buffer slots: no two threads write the same entry.
         for (int i = 0; i < Nn; ++i) buffer[slot * Nn + i] = f[i];
       } else {
-        energy += element_energy<Nn>(law, xe, d, ref + slot * nq, nq, status);
+        energies[static_cast<std::size_t>(slot)] = element_energy<Nn>(law, xe, d, ref + slot * nq, nq, status);
       }
       if (!status.ok) {
 #pragma omp critical(capsflow_membrane_bad_element)
@@ -156,6 +158,8 @@ double MembraneModel::assemble(const Law& law, const Eigen::Matrix3Xd& x, Eigen:
     }
   }
   if (bad_slot >= 0) throw_bad_element<Nn>(x, bad_slot);
+  double energy = 0.0;
+  for (const double e : energies) energy += e;
   return energy;
 }
 
