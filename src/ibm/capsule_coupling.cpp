@@ -361,22 +361,25 @@ void CapsuleCoupling::advance_nodes(int step, double dt, double previous_dt) {
   times_.interpolation += seconds_since(t0);
 }
 
+const fluid::FaceField<3>& CapsuleCoupling::start_face_velocity() {
+  // u^n on faces: the last projection's (after an adaptation, carried where the cells did not
+  // change: around the membrane they stay divergence-free), or, before the first step and
+  // after a restart, the face mean of the cell velocity.
+  if (ns_.face_velocity_current() || ns_.face_velocity_carried()) return ns_.face_velocity();
+  const tree::Tree<3>& t = ns_.tree();
+  fluid::resize<3>(start_faces_, t);
+  const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
+  fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
+    start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
+  });
+  return start_faces_;
+}
+
 void CapsuleCoupling::predict_midpoint(int step) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
   const double dt = ns_.stable_dt();
-  // u^n on faces: the last projection's (after an adaptation, carried where the cells did not
-  // change: around the membrane they stay divergence-free), or, before the first step and
-  // after a restart, the face mean of the cell velocity.
-  const fluid::FaceField<3>* faces = &ns_.face_velocity();
-  if (!ns_.face_velocity_current() && !ns_.face_velocity_carried()) {
-    fluid::resize<3>(start_faces_, t);
-    const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
-    fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
-      start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
-    });
-    faces = &start_faces_;
-  }
+  const fluid::FaceField<3>* faces = &start_face_velocity();
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsule(k);

@@ -259,6 +259,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // X += dt (the scheme's motion) for every owned capsule, each new position checked first.
   void advance_nodes(int step, double dt, double previous_dt);
 
+  // The face velocity the midpoint predictor interpolates u^n from (start_faces_ when the
+  // flow holds no projected faces).
+  const fluid::FaceField<3>& start_face_velocity();
   // The flow step between spreading and interpolation, timed apart from the face spreading it
   // calls; returns the dt of the step before it (the node update's AB2 reads it).
   double fluid_step(CouplingStep& out);

@@ -220,17 +220,7 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
   times_.spreading += seconds_since(t0);
   if (scheme_ == NodeScheme::midpoint) {  // J(X*) u^n, as predict_midpoint on one rank
     t0 = Clock::now();
-    const tree::Tree<3>& t = ns_.tree();
-    const fluid::FaceField<3>* faces = &ns_.face_velocity();
-    if (!ns_.face_velocity_current() && !ns_.face_velocity_carried()) {
-      fluid::resize<3>(start_faces_, t);
-      const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
-      fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
-        start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
-      });
-      faces = &start_faces_;
-    }
-    interpolate_routed(step, *faces, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.start_velocity; });
+    interpolate_routed(step, start_face_velocity(), [](Capsule& c) -> Eigen::Matrix3Xd& { return c.start_velocity; });
     times_.interpolation += seconds_since(t0);
   }
   const double previous_dt = fluid_step(out);
