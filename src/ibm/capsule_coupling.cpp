@@ -293,13 +293,17 @@ void CapsuleCoupling::spread_forces(int step) {
     }
     started = true;
   }
-  const auto cells = static_cast<std::size_t>(t.num_cells());
+  zero_unspread_forces();
+  force_ready_ = true;
+  times_.spreading += seconds_since(t0);
+}
+
+void CapsuleCoupling::zero_unspread_forces() {
+  const auto cells = static_cast<std::size_t>(ns_.tree().num_cells());
   if (!any_cells_)
     for (auto& f : force_) f.assign(cells, 0.0);
   if (!any_faces_)
     for (auto& f : face_force_) f.assign(cells, 0.0);
-  force_ready_ = true;
-  times_.spreading += seconds_since(t0);
 }
 
 void CapsuleCoupling::interpolate_velocities(int step) {

@@ -259,6 +259,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // X += dt (the scheme's motion) for every owned capsule, each new position checked first.
   void advance_nodes(int step, double dt, double previous_dt);
 
+  // The force field no capsule spread into this step (cell-centred or face) is zero, sized to
+  // the tree: the flow step reads both.
+  void zero_unspread_forces();
   // The face velocity the midpoint predictor interpolates u^n from (start_faces_ when the
   // flow holds no projected faces).
   const fluid::FaceField<3>& start_face_velocity();

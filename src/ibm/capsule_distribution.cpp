@@ -152,11 +152,7 @@ void CapsuleCoupling::spread_routed(int step) {
     }
     started = true;
   }
-  const auto cells = static_cast<std::size_t>(t.num_cells());
-  if (!any_cells_)
-    for (auto& f : force_) f.assign(cells, 0.0);
-  if (!any_faces_)
-    for (auto& f : face_force_) f.assign(cells, 0.0);
+  zero_unspread_forces();
 }
 
 void CapsuleCoupling::interpolate_routed(int step, const fluid::FaceField<3>& uf,
