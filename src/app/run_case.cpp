@@ -246,15 +246,14 @@ class FlowRun {
       const std::int64_t words = tree_.global_max(traffic.words_sent);
       const std::int64_t capsules_seen = tree_.global_max(traffic.most_capsules_received);
       const std::int64_t nodes_seen = tree_.global_max(traffic.most_nodes_received);
-      if (!request_.quiet && forest_)
+      const double n = double(std::max<long>(1, step - first_step));
+      if (!request_.quiet && forest_) {
         std::fprintf(stderr,
                      "capsules moved between ranks %lld times; capsule traffic: at most %.0f words sent a step by a "
                      "rank, at most %lld of the %d capsules (%lld nodes) routed to a rank at once\n",
-                     static_cast<long long>(moves), double(words) / double(std::max<long>(1, step - first_step)),
-                     static_cast<long long>(capsules_seen), capsules_->coupling().num_capsules(),
-                     static_cast<long long>(nodes_seen));
-      if (!request_.quiet && forest_) {  // what the weak-scaling model multiplies (every rank makes the same calls)
-        const double n = double(std::max<long>(1, step - first_step));
+                     static_cast<long long>(moves), double(words) / n, static_cast<long long>(capsules_seen),
+                     capsules_->coupling().num_capsules(), static_cast<long long>(nodes_seen));
+        // What the weak-scaling model multiplies (every rank makes the same calls).
         std::fprintf(stderr, "collectives per step: %.1f reductions, %.2f all-to-all exchanges, %.2f sparse exchanges\n",
                      double(collectives_after.reductions - collectives_before.reductions) / n,
                      double(collectives_after.all_to_all - collectives_before.all_to_all) / n,
@@ -262,7 +261,6 @@ class FlowRun {
       }
       if (!request_.quiet) {  // where the time went, per step
         const auto& s = capsules_->coupling().times();
-        const double n = double(std::max<long>(1, step - first_step));
         std::fprintf(stderr, "time per step: membrane %.2f ms, spreading %.2f ms, fluid %.2f ms, interpolation %.2f ms, adapt %.2f ms "
                      "(%lld adaptations, %lld of them before their interval to follow the membrane)\n",
                      1e3 * s.membrane / n, 1e3 * s.spreading / n, 1e3 * s.fluid / n, 1e3 * s.interpolation / n,

@@ -12,7 +12,7 @@
 
 #include "fluid/flow_properties.hpp"
 #include "fluid/multigrid/elliptic_operator.hpp"
-#include "parallel/all_to_all.hpp"
+#include "parallel/sparse_exchange.hpp"
 #include "tree/distributed_forest.hpp"
 
 namespace capsflow::fluid {
@@ -105,7 +105,7 @@ std::vector<double> NavierStokes<D>::leaf_faces() const {
     faces_of(c, faces);
     for (const double v : faces) send[0].push_back(std::bit_cast<std::uint64_t>(v));
   }
-  const auto received = parallel::all_to_all(comm, send);
+  const auto received = parallel::sparse_exchange(comm, send);  // to rank 0 alone
   if (!comm.is_root()) return {};
   constexpr std::size_t kWords = 2 + 2 * D;
   std::vector<const std::uint64_t*> entries;

@@ -302,7 +302,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   RoutedNodes routed_;
   std::vector<MembraneTags> bands_;
   std::int64_t migrations_ = 0;
-  mutable Traffic traffic_;
+  Traffic traffic_;
   CellVector force_;
   fluid::FaceField<3> face_force_;
   bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled
