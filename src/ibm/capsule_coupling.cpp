@@ -286,7 +286,9 @@ void CapsuleCoupling::spread_forces(int step) {
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
-      if (c.kernels.staggered) spread_faces(c.kernels.spread, c.kernels.divergence_free, t, at, c.forces, face_force_, workspace_, mode);
+      if (c.kernels.staggered)
+        spread_faces(c.kernels.spread, c.kernels.divergence_free, t, at, c.forces, face_force_, workspace_, mode, {},
+                     boxes(static_cast<std::size_t>(k)));
       else spread(c.kernels.spread, t, at, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
@@ -315,7 +317,9 @@ void CapsuleCoupling::interpolate_velocities(int step) {
     std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
-      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, c.velocity);
+      if (c.kernels.staggered)
+        interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, c.velocity,
+                          boxes(static_cast<std::size_t>(k)));
       else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
@@ -379,18 +383,42 @@ const fluid::FaceField<3>& CapsuleCoupling::start_face_velocity() {
   return start_faces_;
 }
 
+void CapsuleCoupling::place_midpoints() {
+  const double dt = ns_.stable_dt();
+  for (int k = 0; k < num_capsules(); ++k) {
+    if (!owns(k)) continue;
+    Capsule& c = capsule(k);
+    c.x_mid = c.x;
+    if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
+  }
+}
+
+void CapsuleCoupling::find_boxes(std::size_t count, const std::function<Eigen::Matrix3Xd(std::size_t)>& x_of,
+                                 const std::function<const KernelChoice&(std::size_t)>& kernels_of,
+                                 const OwnedPositions& own) {
+  const auto t0 = Clock::now();
+  boxes_.resize(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const KernelChoice& kc = kernels_of(i);
+    if (!kc.staggered) {
+      boxes_[i].clear();
+      continue;
+    }
+    const std::array kinds{kc.spread, kc.interpolate};
+    boxes_[i].find(ns_.tree(), x_of(i), kinds, kc.divergence_free, own);
+  }
+  times_.spreading += seconds_since(t0);
+}
+
 void CapsuleCoupling::predict_midpoint(int step) {
   const auto t0 = Clock::now();
   const tree::Tree<3>& t = ns_.tree();
-  const double dt = ns_.stable_dt();
   const fluid::FaceField<3>* faces = &start_face_velocity();
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsule(k);
-    c.x_mid = c.x;
-    if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
     try {
-      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, *faces, c.x_mid, c.start_velocity);
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, *faces, c.x_mid, c.start_velocity, boxes(static_cast<std::size_t>(k)));
       else interpolate(c.kernels.interpolate, t, u, c.x_mid, c.start_velocity);
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
@@ -420,11 +448,16 @@ CouplingStep CapsuleCoupling::step() {
   const int step = static_cast<int>(steps_ + 1);
   if (distributed()) return distributed_step(step);
   CouplingStep out;
+  if (scheme_ == NodeScheme::midpoint) place_midpoints();
+  // Every stage of this step reads its stencils at the stage positions, on this tree.
+  find_boxes(capsules_.size(), [this](std::size_t k) { return stage_positions(capsule(static_cast<int>(k))); },
+             [this](std::size_t k) -> const KernelChoice& { return kernels_[k]; }, {});
   if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);
   compute_forces(step);
   spread_forces(step);
   const double previous_dt = fluid_step(out);
   interpolate_velocities(step);
+  boxes_.clear();
   advance_nodes(step, out.fluid.dt, previous_dt);
   ++steps_;
   ++since_adapt_;

@@ -239,8 +239,16 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   void compute_forces(int step);
   void spread_forces(int step);
   void move_nodes(int step, double dt, double previous_dt);
-  // The midpoint scheme's X* and J(X*) u^n, before the flow step.
+  // The midpoint scheme's X* (place_midpoints) and J(X*) u^n, before the flow step.
+  void place_midpoints();
   void predict_midpoint(int step);
+  // boxes_[i] for the nodes at `x_of(i)` of each of `count` staggered capsules or ranges
+  // (kernels_of(i) their kernels); timed as spreading.
+  void find_boxes(std::size_t count, const std::function<Eigen::Matrix3Xd(std::size_t)>& x_of,
+                  const std::function<const KernelChoice&(std::size_t)>& kernels_of, const OwnedPositions& own);
+  [[nodiscard]] const NodeBoxes* boxes(std::size_t i) const {
+    return i < boxes_.size() && boxes_[i].nodes() > 0 ? &boxes_[i] : nullptr;
+  }
   // Where the stages take forces and velocities: X, or X* with the midpoint scheme.
   [[nodiscard]] const Eigen::Matrix3Xd& stage_positions(const Capsule& c) const {
     return scheme_ == NodeScheme::midpoint ? c.x_mid : c.x;
@@ -307,6 +315,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   fluid::FaceField<3> face_force_;
   bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled
   SpreadWorkspace workspace_;
+  // This step's stencil boxes (node_boxes.hpp): per capsule on one rank, per routed range on
+  // N ranks; found once the stage positions are known, cleared at the step's end.
+  std::vector<NodeBoxes> boxes_;
   bool force_ready_ = false;
   std::int64_t steps_ = 0;
   std::int64_t since_adapt_ = 0;

@@ -136,14 +136,15 @@ void CapsuleCoupling::spread_routed(int step) {
   const OwnedPositions own = owned_positions();
   any_cells_ = any_faces_ = false;
   // Capsules ascending, nodes ascending within each: the one-rank order of every face's sum.
-  for (const RoutedNodes::Range& range : routed_.ranges) {
+  for (std::size_t r = 0; r < routed_.ranges.size(); ++r) {
+    const RoutedNodes::Range& range = routed_.ranges[r];
     const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
     const Eigen::Index n = range.end - range.begin;
     const Eigen::Matrix3Xd x = routed_.x.middleCols(range.begin, n), f = routed_.f.middleCols(range.begin, n);
     bool& started = kc.staggered ? any_faces_ : any_cells_;
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
     try {
-      if (kc.staggered) spread_faces(kc.spread, kc.divergence_free, t, x, f, face_force_, workspace_, mode, own);
+      if (kc.staggered) spread_faces(kc.spread, kc.divergence_free, t, x, f, face_force_, workspace_, mode, own, boxes(r));
       else spread(kc.spread, t, x, f, force_, workspace_, mode, own);
     } catch (const StencilError& e) {  // named by the node's index in its capsule
       StencilError::Where w = e.where();
@@ -166,7 +167,7 @@ void CapsuleCoupling::interpolate_routed(int step, const fluid::FaceField<3>& uf
       const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
       const Eigen::Matrix3Xd x = routed_.x.middleCols(range.begin, range.end - range.begin);
       try {
-        interpolate_faces_owned(kc.interpolate, kc.divergence_free, t, uf, x, own, partials[r]);
+        interpolate_faces_owned(kc.interpolate, kc.divergence_free, t, uf, x, own, partials[r], boxes(r));
       } catch (const StencilError& e) {
         StencilError::Where w = e.where();
         w.node = routed_.node[static_cast<std::size_t>(range.begin + w.node)];
@@ -192,14 +193,8 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
     if (!kc.staggered)
       throw std::invalid_argument("ibm: the cell-centred coupling (staggered = false) runs on one rank only");
   migrate();
-  const double dt = ns_.stable_dt();
   collectively([&] {
-    for (int k = 0; k < num_capsules(); ++k) {
-      if (!owns(k) || scheme_ != NodeScheme::midpoint) continue;
-      Capsule& c = capsule(k);
-      c.x_mid = c.x;
-      if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
-    }
+    if (scheme_ == NodeScheme::midpoint) place_midpoints();
     compute_forces(step);
   });
   auto t0 = Clock::now();
@@ -209,7 +204,14 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
   traffic_.most_capsules_received = std::max<std::int64_t>(traffic_.most_capsules_received,
                                                            static_cast<std::int64_t>(routed_.ranges.size()));
   traffic_.most_nodes_received = std::max<std::int64_t>(traffic_.most_nodes_received, routed_.x.cols());
-  collectively([&] { spread_routed(step); });
+  collectively([&] {
+    find_boxes(routed_.ranges.size(), [this](std::size_t r) -> Eigen::Matrix3Xd {
+      const RoutedNodes::Range& range = routed_.ranges[r];
+      return routed_.x.middleCols(range.begin, range.end - range.begin);
+    }, [this](std::size_t r) -> const KernelChoice& { return kernels_[static_cast<std::size_t>(routed_.ranges[r].capsule)]; },
+               owned_positions());
+    spread_routed(step);
+  });
   // The ghosts' faces hold their owners' sums (the flow's face loops read them).
   ns_.tree().exchange_all(fluid::components<3>(face_force_));
   force_ready_ = true;
@@ -224,6 +226,7 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
   for (int k = 0; k < num_capsules(); ++k)
     if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);
   interpolate_routed(step, ns_.face_velocity(), [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
+  boxes_.clear();
   times_.interpolation += seconds_since(t0);
   collectively([&] { advance_nodes(step, out.fluid.dt, previous_dt); });
   ++steps_;

@@ -69,10 +69,11 @@ void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double
 
 template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                       Eigen::Matrix3Xd& v) {
+                       Eigen::Matrix3Xd& v, const NodeBoxes* boxes) {
   constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
   require_cell_sized(t, uf, "face field");
   const Eigen::Index n = x.cols();
+  CAPSFLOW_ASSERT(!boxes || boxes->nodes() == n, "ibm: interpolating with the boxes of other nodes");
   v.resize(3, n);
   const int level = t.max_level();
   const double h = t.cell_size(level);
@@ -84,7 +85,7 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
     for (int d = 0; d < 3; ++d) {
       const BoxStencil st = face_stencil<K>(options, h, &x(0, i), d);
       Index c[kMaxCells];
-      if (find_box(t, level, st.first, st.n, c) >= 0) {
+      if (!(boxes && boxes->stencil_cells(i, st, c)) && find_box(t, level, st.first, st.n, c) >= 0) {
         bad = std::min(bad, i);
         break;
       }
@@ -105,10 +106,11 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
 
 template <Kernel K>
 void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                             const OwnedPositions& own, PartialVelocities& out) {
+                             const OwnedPositions& own, PartialVelocities& out, const NodeBoxes* boxes) {
   constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
   require_cell_sized(t, uf, "face field");
   const Eigen::Index n = x.cols();
+  CAPSFLOW_ASSERT(!boxes || boxes->nodes() == n, "ibm: interpolating with the boxes of other nodes");
   out.kind.assign(static_cast<std::size_t>(3 * n), PartialVelocities::kNothing);
   out.sum.assign(static_cast<std::size_t>(3 * n), 0.0);
   out.offset.assign(static_cast<std::size_t>(3 * n), 0);
@@ -121,7 +123,8 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
     for (int d = 0; d < 3; ++d) {
       const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), d);
       Index c[kMaxCells];
-      require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName, own);
+      if (!(boxes && boxes->stencil_cells(i, st, c)))
+        require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName, own);
       const double* u = uf[d].data();
       const auto k = static_cast<std::size_t>(3 * i + d);
       int owned = 0;
@@ -155,17 +158,17 @@ double complete_face_velocity(const tree::TreeOptions<3>& options, double h, con
 }
 
 template void interpolate_faces_owned<CosineKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                                    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+                                                    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
 template void interpolate_faces_owned<HatKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                                 const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+                                                 const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
 template void interpolate_faces_owned<Peskin4Kernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                                     const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+                                                     const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
 template void interpolate_faces_owned<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
 template void interpolate_faces_owned<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
 template void interpolate_faces_owned<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&);
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
 template double complete_face_velocity<CosineKernel>(const tree::TreeOptions<3>&, double, const double*, int,
                                                      std::span<const double>);
 template double complete_face_velocity<HatKernel>(const tree::TreeOptions<3>&, double, const double*, int,
@@ -180,11 +183,11 @@ template double complete_face_velocity<DivergenceFree<Peskin4Kernel>>(const tree
                                                                       const double*, int, std::span<const double>);
 
 template void interpolate_faces<CosineKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                              const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+                                              const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
 template void interpolate_faces<HatKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&, const Eigen::Matrix3Xd&,
-                                           Eigen::Matrix3Xd&);
+                                           Eigen::Matrix3Xd&, const NodeBoxes*);
 template void interpolate_faces<Peskin4Kernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                               const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+                                               const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
 
 template void interpolate<CosineKernel>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
                                         const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
@@ -194,10 +197,10 @@ template void interpolate<Peskin4Kernel>(const tree::Tree<3>&, const std::array<
                                          const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
 
 template void interpolate_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
 template void interpolate_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
 template void interpolate_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
 
 }  // namespace capsflow::ibm

@@ -33,6 +33,7 @@
 
 #include "fluid/faces.hpp"
 #include "ibm/kernels.hpp"
+#include "ibm/node_boxes.hpp"
 #include "ibm/stencil.hpp"
 #include "tree/tree.hpp"
 
@@ -50,15 +51,17 @@ inline void interpolate(KernelKind kind, const tree::Tree<3>& t, const std::arra
 }
 
 // uf: the face velocities (fluid/faces.hpp; valid on the max-level faces of the stencils).
+// boxes: the nodes' stencil boxes found this step (NodeBoxes), or nullptr.
 template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                       Eigen::Matrix3Xd& v);
+                       Eigen::Matrix3Xd& v, const NodeBoxes* boxes = nullptr);
 
 // divergence_free: with DivergenceFree<K> (kernels.hpp): V is then exactly divergence-free
 // (as a function of X) wherever uf is discretely.
 inline void interpolate_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
-                              const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v) {
-  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v); });
+                              const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v,
+                              const NodeBoxes* boxes = nullptr) {
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v, boxes); });
 }
 
 // On N ranks (stencil.hpp, OwnedPositions): what this rank knows of each node's face
@@ -80,12 +83,14 @@ struct PartialVelocities {
 // max level, or one beyond a wall.
 template <Kernel K>
 void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                             const OwnedPositions& own, PartialVelocities& out);
+                             const OwnedPositions& own, PartialVelocities& out, const NodeBoxes* boxes = nullptr);
 
 inline void interpolate_faces_owned(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
                                     const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                                    const OwnedPositions& own, PartialVelocities& out) {
-  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces_owned<K>(t, uf, x, own, out); });
+                                    const OwnedPositions& own, PartialVelocities& out,
+                                    const NodeBoxes* boxes = nullptr) {
+  with_face_kernel(kind, divergence_free,
+                   [&]<Kernel K>(K) { interpolate_faces_owned<K>(t, uf, x, own, out, boxes); });
 }
 
 // Component d of the velocity at x from the values of every slot of its face stencil, in

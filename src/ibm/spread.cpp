@@ -51,8 +51,10 @@ BoxStencil stencil_of(const tree::TreeOptions<3>& o, double h, const double* x, 
 // (face_axis = -1) or on the faces normal to face_axis, to f[c0..c1).
 template <Kernel K>
 void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
-                 SpreadWorkspace& ws, int face_axis, int c0, int c1, const OwnedPositions& own) {
+                 SpreadWorkspace& ws, int face_axis, int c0, int c1, const OwnedPositions& own,
+                 const NodeBoxes* boxes = nullptr) {
   const Eigen::Index n = x.cols();
+  CAPSFLOW_ASSERT(!boxes || boxes->nodes() == n, "ibm: spreading with the boxes of other nodes");
   const int level = t.max_level();
   const double h = t.cell_size(level), inv_volume = 1.0 / (h * h * h);
   const auto& options = t.options();
@@ -81,7 +83,7 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
       Index* c = ws.cells.data() + i * cells_per_node;
       ws.lowest[i] = 1;  // an empty range: no thread reads this node
       ws.highest[i] = 0;
-      if (find_owned_box(t, level, st.first, widths, own, c) >= 0) {
+      if (!(boxes && boxes->stencil_cells(i, st, c)) && find_owned_box(t, level, st.first, widths, own, c) >= 0) {
         bad = std::min(bad, i);
         continue;
       }
@@ -138,9 +140,10 @@ void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matr
 
 template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
-                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode, const OwnedPositions& own) {
+                  fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode, const OwnedPositions& own,
+                  const NodeBoxes* boxes) {
   prepare(t, x.cols(), forces, f, mode);
-  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1, own);
+  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1, own, boxes);
 }
 
 template void spread<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
@@ -150,17 +153,17 @@ template void spread<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, c
 template void spread<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
                                     CellVector&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
+                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
 template void spread_faces<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
+                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
 template void spread_faces<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
+                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
 
 template void spread_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
 template void spread_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
 template void spread_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
 
 }  // namespace capsflow::ibm

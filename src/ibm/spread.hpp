@@ -32,6 +32,7 @@
 
 #include "fluid/faces.hpp"
 #include "ibm/kernels.hpp"
+#include "ibm/node_boxes.hpp"
 #include "ibm/stencil.hpp"
 #include "tree/tree.hpp"
 
@@ -68,17 +69,19 @@ inline void spread(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3
 
 // f: one array per component over the tree's cell slots, slot c the lower face of cell c
 // normal to d (a fluid::FaceField).
+// boxes: the nodes' stencil boxes found this step (NodeBoxes, with the same own), or nullptr.
 template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
                   fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign,
-                  const OwnedPositions& own = {});
+                  const OwnedPositions& own = {}, const NodeBoxes* boxes = nullptr);
 
 // divergence_free: with DivergenceFree<K> (kernels.hpp), the adjoint of the divergence-free
 // interpolation.
 inline void spread_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
                          const Eigen::Matrix3Xd& forces, fluid::FaceField<3>& f, SpreadWorkspace& ws,
-                         SpreadMode mode = SpreadMode::assign, const OwnedPositions& own = {}) {
-  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode, own); });
+                         SpreadMode mode = SpreadMode::assign, const OwnedPositions& own = {},
+                         const NodeBoxes* boxes = nullptr) {
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode, own, boxes); });
 }
 
 // faces = f (or faces + f with SpreadMode::add) on every fine face; coarse faces: the mean of

@@ -46,6 +46,14 @@ struct AxisStencil {
   std::array<double, W> w{};  // normalised weights
 };
 
+// The first cell of a W-wide axis stencil whose node lies in cell floor(u) (u measured from
+// sample 0, in cells); and of the W + 1 faces of a divergence-free face axis whose nearest
+// face is i0 = floor(u + 1/2). One definition for the stencils and NodeBoxes' boxes.
+[[nodiscard]] inline std::int32_t axis_first(double floor_u, int W) {
+  return static_cast<std::int32_t>(floor_u) - (W / 2 - 1);
+}
+[[nodiscard]] inline std::int32_t smoothed_face_first(double i0, int W) { return static_cast<std::int32_t>(i0) - W / 2; }
+
 // offset: where sample 0 lies in cell 0, in cells (1/2: cell centres, 0: lower faces).
 template <Kernel K>
 [[nodiscard]] inline AxisStencil<K::kSupport> axis_stencil(double x, double origin, double h, double offset = 0.5) {
@@ -57,7 +65,7 @@ template <Kernel K>
   const double i0 = std::floor(u);
   const double r = u - i0;
   AxisStencil<W> a;
-  a.first = static_cast<std::int32_t>(i0) - (W / 2 - 1);
+  a.first = axis_first(i0, W);
   if constexpr (requires(double* w) { K::stencil_weights(r, w); }) {
     K::stencil_weights(r, a.w.data());
   } else {
@@ -116,7 +124,7 @@ template <Kernel K>
     CAPSFLOW_ASSERT(std::abs(u) < 1e9, "ibm: a membrane node's coordinate is not finite or far outside the tree");
     const double i0 = std::floor(u + 0.5);
     b.n[face_axis] = W + 1;
-    b.first[face_axis] = static_cast<std::int32_t>(i0) - W / 2;
+    b.first[face_axis] = smoothed_face_first(i0, W);
     double sum = 0.0;
     for (int k = 0; k <= W; ++k) sum += b.w[face_axis][k] = K::weight((i0 - W / 2 + k) - u);
     CAPSFLOW_ASSERT(sum > 0.0 && std::isfinite(sum), "ibm: the kernel's weights around a node do not sum to a positive value");
@@ -124,6 +132,30 @@ template <Kernel K>
   } else {
     const auto st = node_stencil<K>(o, h, x, face_axis);
     for (int d = 0; d < 3; ++d) set_axis(b, d, st[d]);
+  }
+  return b;
+}
+
+// The cells of face_stencil<K>(o, h, x, face_axis) without its weights: first and n.
+template <Kernel K>
+[[nodiscard]] inline BoxStencil face_stencil_bounds(const tree::TreeOptions<3>& o, double h, const double* x,
+                                                    int face_axis) {
+  BoxStencil b;
+  constexpr bool kSmoothed = kIsDivergenceFree<K>;
+  constexpr int W = [] {
+    if constexpr (kSmoothed) return K::Base::kSupport;
+    else return K::kSupport;
+  }();
+  for (int d = 0; d < 3; ++d) {
+    const double u = (x[d] - o.origin[d]) / h - (d == face_axis ? 0.0 : 0.5);
+    CAPSFLOW_ASSERT(std::abs(u) < 1e9, "ibm: a membrane node's coordinate is not finite or far outside the tree");
+    if (kSmoothed && d == face_axis) {
+      b.n[d] = W + 1;
+      b.first[d] = smoothed_face_first(std::floor(u + 0.5), W);
+    } else {
+      b.n[d] = W;
+      b.first[d] = axis_first(std::floor(u), W);
+    }
   }
   return b;
 }
