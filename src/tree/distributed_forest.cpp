@@ -610,10 +610,10 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
   std::vector<std::int8_t> wish(n, 0);
   for (const Index c : owned_leaves) wish[static_cast<std::size_t>(c)] = t.flags_[static_cast<std::size_t>(c)];
   std::vector<double> flags(n), merges(n);
+  // An active cell's parent: the parent of its sibling group (no search).
   auto parent_of = [&](Index c, int l) {
-    auto x = t.coords(c);
-    for (auto& xi : x) xi >>= 1;
-    return t.find(l - 1, x);
+    const Level<D>& lv = t.level(l);
+    return lv.group_parent[static_cast<std::size_t>((c - lv.base) / C)];
   };
   for (int round = 0;; ++round) {
     if (round > 4 * (top + 1) * comm_.size())
