@@ -1,26 +1,15 @@
 #include "tree/leaf_migration.hpp"
 
+#include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
-#include "parallel/collective_counts.hpp"
+#include "parallel/sparse_exchange.hpp"
 
 namespace capsflow::tree {
-
-namespace {
-
-void check(int code, const char* what) {
-  if (code != MPI_SUCCESS) throw std::runtime_error(fmt::format("leaf migration: {} failed (MPI error {})", what, code));
-}
-
-std::vector<int> offsets_of(const std::vector<int>& counts) {
-  std::vector<int> offsets(counts.size(), 0);
-  for (std::size_t q = 1; q < counts.size(); ++q) offsets[q] = offsets[q - 1] + counts[q - 1];
-  return offsets;
-}
-
-}  // namespace
 
 MigratedLeaves migrate_leaves(const parallel::Comm& comm, const Partition& target, std::span<const CurveCell> leaves,
                               std::span<const double> values, int components) {
@@ -32,49 +21,59 @@ MigratedLeaves migrate_leaves(const parallel::Comm& comm, const Partition& targe
     throw std::invalid_argument(fmt::format("leaf migration: a partition of {} ranks on {}", target.ranks(), comm.size()));
   if (!comm.distributed()) return {{leaves.begin(), leaves.end()}, {values.begin(), values.end()}};
 
+  // Each leaf to its new owner as (position, level, the values' bits): a rank sends to the
+  // few ranks its range overlaps (parallel::sparse_exchange), not to every rank.
   const int p = comm.size();
-  std::vector<int> cells_out(static_cast<std::size_t>(p), 0);
-  int previous = 0;
-  for (const CurveCell& c : leaves) {
-    const int q = target.owner(c.position);
-    if (q < previous) throw std::invalid_argument("leaf migration: leaves not in curve order");
-    previous = q;
-    ++cells_out[static_cast<std::size_t>(q)];
+  const std::size_t words_per_leaf = 2 + per;
+  std::vector<int> owner(leaves.size());
+  std::vector<std::size_t> count_to(static_cast<std::size_t>(p), 0);
+  for (std::size_t i = 0; i < leaves.size(); ++i) {
+    owner[i] = target.owner(leaves[i].position);
+    if (i > 0 && owner[i] < owner[i - 1]) throw std::invalid_argument("leaf migration: leaves not in curve order");
+    ++count_to[static_cast<std::size_t>(owner[i])];
   }
-  std::vector<int> cells_in(static_cast<std::size_t>(p));
-  // Counted as two all-to-all exchanges (its two MPI_Alltoallv, collective_counts.hpp).
-  parallel::detail::count_all_to_all();
-  parallel::detail::count_all_to_all();
-  check(MPI_Alltoall(cells_out.data(), 1, MPI_INT, cells_in.data(), 1, MPI_INT, comm.handle()), "MPI_Alltoall");
-
-  // Two words per leaf (position, level), `components` doubles per leaf; runs are contiguous
-  // in the send arrays, so the offsets are running sums.
-  auto scaled = [](std::vector<int> v, int k) {
-    for (auto& x : v) x *= k;
-    return v;
-  };
-  const auto words_out = scaled(cells_out, 2), words_in = scaled(cells_in, 2);
-  const auto values_out = scaled(cells_out, components), values_in = scaled(cells_in, components);
-  std::vector<std::uint64_t> send_words;
-  send_words.reserve(2 * leaves.size());
-  for (const CurveCell& c : leaves) {
-    send_words.push_back(c.position);
-    send_words.push_back(static_cast<std::uint64_t>(c.level));
+  // The leaves that stay (one run: the leaves are in curve order) are not packed.
+  const int me = comm.rank();
+  std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(p));
+  for (int q = 0; q < p; ++q)
+    if (q != me) send[static_cast<std::size_t>(q)].reserve(words_per_leaf * count_to[static_cast<std::size_t>(q)]);
+  std::size_t stay_begin = leaves.size();
+  for (std::size_t i = 0; i < leaves.size(); ++i) {
+    if (owner[i] == me) {
+      stay_begin = std::min(stay_begin, i);
+      continue;
+    }
+    const CurveCell& c = leaves[i];
+    auto& w = send[static_cast<std::size_t>(owner[i])];
+    w.push_back(c.position);
+    w.push_back(static_cast<std::uint64_t>(c.level));
+    for (std::size_t k = 0; k < per; ++k) w.push_back(std::bit_cast<std::uint64_t>(values[i * per + k]));
   }
-  int received = 0;
-  for (const int n : cells_in) received += n;
-  std::vector<std::uint64_t> recv_words(2 * static_cast<std::size_t>(received));
+  const auto received = parallel::sparse_exchange(comm, send);
+  const std::size_t stay = count_to[static_cast<std::size_t>(me)];
+  std::size_t count = stay;
+  for (const auto& w : received) {
+    if (w.size() % words_per_leaf != 0) throw std::runtime_error("leaf migration: a message of partial leaves");
+    count += w.size() / words_per_leaf;
+  }
+  // By sender rank: the old parts are consecutive ranges of the curve, so this is curve order.
   MigratedLeaves out;
-  out.values.resize(static_cast<std::size_t>(received) * per);
-  check(MPI_Alltoallv(send_words.data(), words_out.data(), offsets_of(words_out).data(), MPI_UINT64_T,
-                      recv_words.data(), words_in.data(), offsets_of(words_in).data(), MPI_UINT64_T, comm.handle()),
-        "MPI_Alltoallv (cells)");
-  check(MPI_Alltoallv(values.data(), values_out.data(), offsets_of(values_out).data(), MPI_DOUBLE, out.values.data(),
-                      values_in.data(), offsets_of(values_in).data(), MPI_DOUBLE, comm.handle()),
-        "MPI_Alltoallv (values)");
-  out.leaves.reserve(static_cast<std::size_t>(received));
-  for (std::size_t i = 0; i + 1 < recv_words.size(); i += 2)
-    out.leaves.push_back({recv_words[i], static_cast<int>(recv_words[i + 1])});
+  out.leaves.reserve(count);
+  out.values.reserve(count * per);
+  for (int q = 0; q < p; ++q) {
+    if (q == me) {
+      out.leaves.insert(out.leaves.end(), leaves.begin() + static_cast<std::ptrdiff_t>(stay_begin),
+                        leaves.begin() + static_cast<std::ptrdiff_t>(stay_begin + stay));
+      out.values.insert(out.values.end(), values.begin() + static_cast<std::ptrdiff_t>(stay_begin * per),
+                        values.begin() + static_cast<std::ptrdiff_t>((stay_begin + stay) * per));
+      continue;
+    }
+    const auto& w = received[static_cast<std::size_t>(q)];
+    for (std::size_t i = 0; i < w.size(); i += words_per_leaf) {
+      out.leaves.push_back({w[i], static_cast<int>(w[i + 1])});
+      for (std::size_t k = 0; k < per; ++k) out.values.push_back(std::bit_cast<double>(w[i + 2 + k]));
+    }
+  }
   return out;
 }
 
