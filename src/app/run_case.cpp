@@ -345,23 +345,21 @@ class FlowRun {
 
   fs::path checkpoint(long step, double dt) {
     const fs::path file = out_ / numbered("checkpoint", step, "h5");
-    // The capsules' states from their owners (collective), on rank 0.
-    const std::vector<io::ExtraArray> capsule_extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
+    // The capsules' states from their owners (collective), on rank 0, which writes them.
+    std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
+    for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
     // The faces the next step starts from, where it reads them (midpoint nodes, carry_faces):
     // without them a restarted run starts from the face mean of the cell velocity and departs
-    // from the uninterrupted one. Gathered on rank 0 (collective).
+    // from the uninterrupted one. Each rank's own leaves' rows.
     const bool faces_read = case_.fluid.carry_faces || (capsules_ && case_.time.node_scheme == io::NodeScheme::midpoint);
-    std::vector<double> faces = faces_read ? ns_.leaf_faces() : std::vector<double>{};
-    with_whole_tree([&](const tree::Tree<D>& t) {
-      std::vector<io::ExtraArray> extras = capsule_extras;
-      for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
-      if (!faces.empty()) {
-        const std::size_t n = faces.size() / (2 * D);
-        extras.push_back({"face_velocity", {n, 2 * D}, std::move(faces)});
+    std::vector<io::LeafArray> leaf_arrays;
+    if (faces_read)
+      if (std::vector<double> faces = ns_.leaf_faces(); ns_.face_velocity_current() || ns_.face_velocity_carried()) {
+        leaf_arrays.push_back({"face_velocity", 2 * D, std::move(faces)});
         extras.push_back({"face_velocity_current", {1}, {ns_.face_velocity_current() ? 1.0 : 0.0}});
       }
-      io::write_checkpoint<D>(file, t, {ns_.time(), step, dt}, extras);
-    });
+    // Every rank writes its leaves into the one file (parallel HDF5 on N ranks).
+    io::write_checkpoint<D>(file, tree_, {ns_.time(), step, dt}, extras, leaf_arrays);
     return file;
   }
 

@@ -14,6 +14,7 @@
 #include "fluid/multigrid/elliptic_operator.hpp"
 #include "parallel/sparse_exchange.hpp"
 #include "tree/distributed_forest.hpp"
+#include "tree/leaf_order.hpp"
 
 namespace capsflow::fluid {
 
@@ -61,69 +62,26 @@ void NavierStokes<D>::resize_scratch() {
   }
 }
 
-namespace {
-// The leaves by (level, Morton key): an order that does not depend on how the tree was
-// built (a tree rebuilt from a checkpoint has the same leaves at other indices).
-template <int D>
-std::vector<Index> leaves_by_key(const tree::Tree<D>& t) {
-  std::vector<Index> order(t.leaves().begin(), t.leaves().end());
-  const auto key = [&](Index c) {
-    const int l = t.level_of(c);
-    return std::pair{l, t.level(l).keys[static_cast<std::size_t>(c - t.level(l).base)]};
-  };
-  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return key(a) < key(b); });
-  return order;
-}
-}  // namespace
 
 template <int D>
 std::vector<double> NavierStokes<D>::leaf_faces() const {
   if (!(faces_current_ || faces_carried_)) return {};  // the same on every rank
-  const auto faces_of = [&](Index c, std::vector<double>& out) {
+  std::vector<double> out;
+  out.reserve(tree_.owned_leaves().size() * 2 * D);
+  for (const Index c : tree::owned_leaves_by_key(tree_)) {
     const Index* row = tree_.level(tree_.level_of(c)).face_row(c);
     for (int d = 0; d < D; ++d) {
       out.push_back(uf_[d][c]);
       out.push_back(uf_[d][row[2 * d + 1]]);
     }
-  };
-  std::vector<double> out;
-  if (!tree_.distributed()) {
-    out.reserve(static_cast<std::size_t>(tree_.num_leaves()) * 2 * D);
-    for (const Index c : leaves_by_key(tree_)) faces_of(c, out);
-    return out;
   }
-  // Each rank's owned leaves (level, key, faces) to rank 0, which orders them by (level, key).
-  const auto* forest = dynamic_cast<const tree::DistributedForest<D>*>(tree_.distribution());
-  const parallel::Comm& comm = forest->comm();
-  std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm.size()));
-  std::vector<double> faces;
-  for (const Index c : tree_.owned_leaves()) {
-    const int l = tree_.level_of(c);
-    send[0].push_back(static_cast<std::uint64_t>(l));
-    send[0].push_back(tree_.level(l).keys[static_cast<std::size_t>(c - tree_.level(l).base)]);
-    faces.clear();
-    faces_of(c, faces);
-    for (const double v : faces) send[0].push_back(std::bit_cast<std::uint64_t>(v));
-  }
-  const auto received = parallel::sparse_exchange(comm, send);  // to rank 0 alone
-  if (!comm.is_root()) return {};
-  constexpr std::size_t kWords = 2 + 2 * D;
-  std::vector<const std::uint64_t*> entries;
-  for (const auto& w : received)
-    for (std::size_t k = 0; k + kWords <= w.size(); k += kWords) entries.push_back(w.data() + k);
-  std::sort(entries.begin(), entries.end(), [](const std::uint64_t* a, const std::uint64_t* b) {
-    return a[0] != b[0] ? a[0] < b[0] : a[1] < b[1];
-  });
-  out.reserve(entries.size() * 2 * D);
-  for (const std::uint64_t* e : entries)
-    for (std::size_t j = 2; j < kWords; ++j) out.push_back(std::bit_cast<double>(e[j]));
   return out;
 }
 
 template <int D>
 std::vector<std::pair<int, tree::Key>> NavierStokes<D>::leaf_order() const {
   std::vector<std::pair<int, tree::Key>> order;
-  for (const Index c : leaves_by_key(tree_)) {
+  for (const Index c : tree::owned_leaves_by_key(tree_)) {
     const int l = tree_.level_of(c);
     order.emplace_back(l, tree_.level(l).keys[static_cast<std::size_t>(c - tree_.level(l).base)]);
   }

@@ -124,8 +124,8 @@ class NavierStokes {
   // The face velocity for a checkpoint (issue 17: a restarted run with the midpoint node
   // scheme or carry_faces must start from the same u^n faces as the uninterrupted one):
   // for each leaf by (level, Morton key), its lower then upper face along each axis
-  // (2D values); empty when the faces are neither current nor carried. On N ranks every
-  // leaf's, on rank 0 (empty on the others): collective.
+  // (2D values); empty when the faces are neither current nor carried. On N ranks this
+  // rank's owned leaves (tree::owned_leaves_by_key), the rows the checkpoint writer places.
   std::vector<double> leaf_faces() const;
   // The leaves by (level, key), the order of leaf_faces().
   std::vector<std::pair<int, tree::Key>> leaf_order() const;

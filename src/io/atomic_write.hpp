@@ -21,6 +21,14 @@ namespace capsflow::io {
 void atomic_write(const std::filesystem::path& target,
                   const std::function<void(const std::filesystem::path& temporary)>& write);
 
+// The two halves of atomic_write, for writers that are several processes (a checkpoint on N
+// ranks: every rank writes into the one temporary, rank 0 commits it): a hidden temporary
+// name next to target, unique to this process and call; and the rename into place (throws
+// std::runtime_error naming the file, and removes the temporary, if it fails or the
+// temporary does not exist).
+[[nodiscard]] std::filesystem::path temporary_path_for(const std::filesystem::path& target);
+void commit_temporary(const std::filesystem::path& temporary, const std::filesystem::path& target);
+
 // atomic_write of a text (or any byte string).
 void atomic_write_text(const std::filesystem::path& target, std::string_view content);
 

@@ -47,17 +47,31 @@ struct CheckpointExpectations {
   std::optional<std::vector<std::size_t>> capsule_nodes;
 };
 
+// Values per leaf that live outside the tree's fields (the projected faces): this rank's
+// owned leaves' rows, in tree::owned_leaves_by_key order, per_leaf values each. Written as
+// /extras/<name> of shape (leaves, per_leaf) in the file's leaf order.
+struct LeafArray {
+  std::string name;
+  std::size_t per_leaf = 1;
+  std::vector<double> values;
+};
+
 struct RestoredState {
   CheckpointScalars scalars;
   std::vector<ExtraArray> extras;  // in name order
 };
 
-// Writes atomically (temporary file, then rename). Throws std::invalid_argument for a field
-// or extra name that is empty, contains '/', or repeats, or an extra whose shape does not
-// match its values; std::runtime_error naming the file if HDF5 cannot write it.
+// Writes atomically (temporary file, then rename). On N ranks (a distributed tree) every
+// rank writes its own leaves' rows into the one file, collectively (parallel HDF5), and rank
+// 0 the extras (the other ranks' `extras` are ignored; `leaf_arrays` must name the same
+// arrays on every rank); the file is the one a single rank would write. Throws
+// std::invalid_argument for a field or extra name that is empty, contains '/', or repeats,
+// or an extra or leaf array whose size does not match; std::runtime_error naming the file
+// if HDF5 cannot write it (on every rank alike on N ranks).
 template <int D>
 void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tree,
-                      const CheckpointScalars& scalars, std::span<const ExtraArray> extras = {});
+                      const CheckpointScalars& scalars, std::span<const ExtraArray> extras = {},
+                      std::span<const LeafArray> leaf_arrays = {});
 
 // Restores `tree` (which must still be its bare roots, with the fields registered) from
 // the checkpoint. The whole file is checked before the tree changes; each failure throws
@@ -74,9 +88,11 @@ template <int D>
                                             const CheckpointExpectations& expect = {});
 
 extern template void write_checkpoint<2>(const std::filesystem::path&, const tree::Tree<2>&,
-                                         const CheckpointScalars&, std::span<const ExtraArray>);
+                                         const CheckpointScalars&, std::span<const ExtraArray>,
+                                         std::span<const LeafArray>);
 extern template void write_checkpoint<3>(const std::filesystem::path&, const tree::Tree<3>&,
-                                         const CheckpointScalars&, std::span<const ExtraArray>);
+                                         const CheckpointScalars&, std::span<const ExtraArray>,
+                                         std::span<const LeafArray>);
 extern template RestoredState read_checkpoint<2>(const std::filesystem::path&, tree::Tree<2>&,
                                                  const CheckpointExpectations&);
 extern template RestoredState read_checkpoint<3>(const std::filesystem::path&, tree::Tree<3>&,

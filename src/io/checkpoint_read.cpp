@@ -209,7 +209,7 @@ RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& 
   if (version < detail::kOldestCheckpointVersion || version > detail::kCheckpointVersion)
     io.fail(fmt::format("checkpoint format version {}, this capsflow reads versions {} to {}", version,
                         detail::kOldestCheckpointVersion, detail::kCheckpointVersion));
-  io.require_checksums(version >= 2);  // version 1 predates them
+  io.expect_format_version(version);
   const auto dim = scalar(io.read_attribute<std::int32_t>(root, "dimension", H5T_NATIVE_INT32, "/@dimension"),
                           io, "/@dimension");
   if (dim != D) io.fail(fmt::format("written by a {}D run, this run is {}D", dim, D));

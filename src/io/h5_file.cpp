@@ -35,11 +35,7 @@ Handle dataspace(const std::vector<hsize_t>& shape) {
 }
 }  // namespace
 
-namespace {
-// FNV-1a (64 bits) over the values' little-endian bytes, row-major: each dataset's own
-// checksum, kept in its (checksummed) object header. Fletcher32 alone is fooled by a chunk
-// zeroed together with its checksum (all-zero data sums to zero); this one is not.
-std::uint64_t value_checksum(const void* data, std::size_t values, std::size_t value_bytes) {
+std::uint64_t fnv_checksum(const void* data, std::size_t values, std::size_t value_bytes) {
   std::uint64_t h = 14695981039346656037ull;
   const auto* bytes = static_cast<const unsigned char*>(data);
   for (std::size_t v = 0; v < values; ++v)
@@ -50,6 +46,30 @@ std::uint64_t value_checksum(const void* data, std::size_t values, std::size_t v
   return h;
 }
 
+namespace {
+// SplitMix64's finaliser (Steele, Lea & Flood 2014): every input bit changes about half of the
+// output bits, so a zeroed, swapped or flipped value changes its term unpredictably.
+std::uint64_t splitmix(std::uint64_t z) {
+  z += 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+}  // namespace
+
+std::uint64_t indexed_checksum(const void* data, std::size_t values, std::uint64_t first_index) {
+  std::uint64_t sum = 0;
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t v = 0; v < values; ++v) {
+    std::uint64_t word = 0;
+    std::memcpy(&word, bytes + 8 * v, 8);
+    if constexpr (std::endian::native == std::endian::big) word = __builtin_bswap64(word);
+    sum += splitmix(word + splitmix(first_index + v));
+  }
+  return sum;
+}
+
+namespace {
 constexpr char kChecksumAttribute[] = "checksum";
 
 // Chunks of at most 64 Ki values (512 KiB of doubles): each carries its own checksum, and
@@ -66,14 +86,38 @@ std::vector<hsize_t> chunk_shape(const std::vector<hsize_t>& shape) {
 
 void H5Io::write(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
                  const void* data) const {
+  int rank = 0;
+  if (comm_ != MPI_COMM_NULL) MPI_Comm_rank(comm_, &rank);
+  if (!shape.empty()) {
+    std::vector<RowRun> runs;
+    if (rank == 0 && shape[0] > 0) runs.push_back({0, shape[0]});
+    write_rows(loc, name, type, shape, runs, data);
+    return;
+  }
+  // A scalar lives in its (checksummed) object header; every process writes the same value.
   const Handle space = dataspace(shape);
   const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  hsize_t n = 1;
+  const bool ok = dcpl.valid() && H5Pset_layout(dcpl.get(), H5D_COMPACT) >= 0;
+  const Handle set(ok ? H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT)
+                      : H5I_INVALID_HID,
+                   H5Dclose);
+  if (!set.valid() || H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail(fmt::format("cannot write dataset {}", name));
+  if (H5Tget_size(type) != 8) fail(fmt::format("dataset {}: checksums cover 8-byte values only", name));
+  const std::uint64_t sum = indexed_checksum(data, 1, 0);
+  attribute(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, {}, &sum);
+}
+
+void H5Io::write_rows(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
+                      const std::vector<RowRun>& runs, const void* local) const {
+  if (shape.empty() || H5Tget_size(type) != 8) fail(fmt::format("dataset {}: rows of 8-byte values expected", name));
+  hsize_t n = 1, per_row = 1;
   for (const hsize_t d : shape) n *= d;
+  for (std::size_t i = 1; i < shape.size(); ++i) per_row *= shape[i];
+  const Handle space = dataspace(shape);
+  const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
   bool ok = dcpl.valid();
-  if (shape.empty()) {
-    ok = ok && H5Pset_layout(dcpl.get(), H5D_COMPACT) >= 0;
-  } else if (n > 0) {  // (an empty array has no values to protect)
+  if (n > 0) {  // (an empty array has no values to protect)
     const std::vector<hsize_t> chunk = chunk_shape(shape);
     ok = ok && H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()) >= 0 &&
          H5Pset_fletcher32(dcpl.get()) >= 0;
@@ -81,9 +125,37 @@ void H5Io::write(hid_t loc, const std::string& name, hid_t type, const std::vect
   const Handle set(ok ? H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT)
                       : H5I_INVALID_HID,
                    H5Dclose);
-  if (!set.valid() || H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+  if (!set.valid()) fail(fmt::format("cannot write dataset {}", name));
+  // This process' rows: a union of hyperslabs of the file, one contiguous block in memory.
+  const Handle file_space(H5Dget_space(set.get()), H5Sclose);
+  hsize_t rows = 0;
+  bool selected = file_space.valid() && H5Sselect_none(file_space.get()) >= 0;
+  std::uint64_t sum = 0;
+  const auto* bytes = static_cast<const unsigned char*>(local);
+  for (const RowRun& r : runs) {
+    if (r.count == 0) continue;
+    if (r.first + r.count > shape[0]) fail(fmt::format("dataset {}: rows beyond its {}", name, shape[0]));
+    std::vector<hsize_t> start(shape.size(), 0), count = shape;
+    start[0] = r.first;
+    count[0] = r.count;
+    selected = selected &&
+               H5Sselect_hyperslab(file_space.get(), H5S_SELECT_OR, start.data(), nullptr, count.data(), nullptr) >= 0;
+    sum += indexed_checksum(bytes + 8 * rows * per_row, static_cast<std::size_t>(r.count * per_row), r.first * per_row);
+    rows += r.count;
+  }
+  const hsize_t local_values = rows * per_row;
+  const Handle memory_space(H5Screate_simple(1, &local_values, nullptr), H5Sclose);
+  if (local_values == 0 && memory_space.valid()) H5Sselect_none(memory_space.get());
+  const Handle transfer(H5Pcreate(H5P_DATASET_XFER), H5Pclose);
+  if (comm_ != MPI_COMM_NULL && transfer.valid()) H5Pset_dxpl_mpio(transfer.get(), H5FD_MPIO_COLLECTIVE);
+  if (n > 0 && (!selected || !memory_space.valid() ||
+                H5Dwrite(set.get(), type, memory_space.get(), file_space.get(), transfer.get(), local) < 0))
     fail(fmt::format("cannot write dataset {}", name));
-  const std::uint64_t sum = value_checksum(data, static_cast<std::size_t>(n), H5Tget_size(type));
+  if (comm_ != MPI_COMM_NULL) {  // unsigned addition wraps: the sum mod 2^64 of every process' terms
+    std::uint64_t total = 0;
+    MPI_Allreduce(&sum, &total, 1, MPI_UINT64_T, MPI_SUM, comm_);
+    sum = total;
+  }
   attribute(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, {}, &sum);
 }
 
@@ -166,17 +238,21 @@ Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::s
   Array<T> a;
   if (!sized_from(H5Dget_space(set.get()), a, value_limit(loc, H5Dget_type(set.get()))))
     fail(fmt::format("{}: unreadable shape, or more values than the file holds (corrupt?)", path));
-  if (require_checksums_ && !(a.shape.empty() ? is_compact(set.get()) : a.values.empty() || has_fletcher32(set.get())))
+  const bool require_checksums = version_ >= 2;  // version 1 predates them
+  if (require_checksums && !(a.shape.empty() ? is_compact(set.get()) : a.values.empty() || has_fletcher32(set.get())))
     fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
   if (!a.values.empty() && H5Dread(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()) < 0)
     fail(error_stack_mentions_checksum()
              ? fmt::format("dataset {} fails its checksum: the file is corrupt", path)
              : fmt::format("cannot read dataset {} (corrupt file?)", path));
-  if (require_checksums_) {
+  if (require_checksums) {
     if (H5Aexists(set.get(), kChecksumAttribute) <= 0)
       fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
     const auto sum = read_attribute<std::uint64_t>(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, path + "@checksum");
-    if (sum.values.size() != 1 || sum.values[0] != value_checksum(a.values.data(), a.values.size(), sizeof(T)))
+    static_assert(sizeof(T) == 8, "checkpoint datasets hold 8-byte values");
+    const std::uint64_t expected = version_ == 2 ? fnv_checksum(a.values.data(), a.values.size(), sizeof(T))
+                                                 : indexed_checksum(a.values.data(), a.values.size(), 0);
+    if (sum.values.size() != 1 || sum.values[0] != expected)
       fail(fmt::format("dataset {} fails its checksum: the file is corrupt", path));
   }
   return a;
@@ -230,6 +306,12 @@ extern "C" const char* __lsan_default_suppressions() { return "leak:libhdf5\n"; 
 Handle checksummed_file_access() {
   Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   if (fapl.valid()) H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_LATEST);
+  return fapl;
+}
+
+Handle mpio_file_access(MPI_Comm comm) {
+  Handle fapl = checksummed_file_access();
+  if (fapl.valid() && H5Pset_fapl_mpio(fapl.get(), comm, MPI_INFO_NULL) < 0) return {};
   return fapl;
 }
 

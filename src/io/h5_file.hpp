@@ -12,8 +12,9 @@
 namespace capsflow::io::detail {
 
 inline constexpr char kCheckpointFormat[] = "capsflow checkpoint";
-// Version 2 added checksums (docs/checkpoint-format.md); version 1 files still read.
-inline constexpr int kCheckpointVersion = 2;
+// Version 2 added checksums, version 3 made them sums that ranks writing their own rows add
+// up (docs/checkpoint-format.md); versions 1 and 2 still read.
+inline constexpr int kCheckpointVersion = 3;
 inline constexpr int kOldestCheckpointVersion = 1;
 
 class Handle {
@@ -68,26 +69,46 @@ struct Array {
   std::vector<T> values;
 };
 
+// A dataset's checksum attribute (docs/checkpoint-format.md). Version 3: the sum, mod 2^64,
+// over its values i (row-major; 8-byte values) of mix(i, the value's 64 bits): each process
+// adds the terms of the rows it writes, and the sums add up. Version 2: FNV-1a 64 over the
+// values' little-endian bytes.
+std::uint64_t indexed_checksum(const void* data, std::size_t values, std::uint64_t first_index);
+std::uint64_t fnv_checksum(const void* data, std::size_t values, std::size_t value_bytes);
+
+// Rows [first, first + count) of a dataset's first dimension.
+struct RowRun {
+  hsize_t first = 0, count = 0;
+};
+
 // Reading and writing helpers. Failures throw CheckpointError ("<file>: <what>") when
 // reading, std::runtime_error when writing (a write failure is not the file's fault).
+// Writing on N processes (comm != MPI_COMM_NULL, the file opened with mpio_file_access):
+// every dataset and attribute is created by all of them alike, and each writes its rows.
 class H5Io {
  public:
   enum class Mode { read, write };
-  H5Io(std::string file, Mode mode) : file_(std::move(file)), mode_(mode) {}
+  H5Io(std::string file, Mode mode, MPI_Comm comm = MPI_COMM_NULL)
+      : file_(std::move(file)), mode_(mode), comm_(comm) {}
 
   [[noreturn]] void fail(const std::string& what) const;
 
   Handle group(hid_t loc, const std::string& name, bool create) const;
   // Datasets are written checksummed: arrays chunked with the Fletcher32 filter, scalars
   // compact (their value lives in the object header, which the file format checksums).
+  // On N processes rank 0's data is written (scalars: every process passes the same).
   void write(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
              const void* data) const;
+  // An array whose rows this process holds: `runs` of rows of `shape`, their values one run
+  // after the other in `local`. Collective on N processes. 8-byte types.
+  void write_rows(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
+                  const std::vector<RowRun>& runs, const void* local) const;
   void attribute(hid_t loc, const std::string& name, hid_t type, const std::vector<hsize_t>& shape,
                  const void* data) const;
   void string_attribute(hid_t loc, const std::string& name, const std::string& value) const;
 
-  // Reading: refuse datasets written without a checksum (format version 2 and later).
-  void require_checksums(bool on) { require_checksums_ = on; }
+  // Reading: the file's format version says which checksums every dataset must carry.
+  void expect_format_version(int version) { version_ = version; }
 
   // `path` names the object in messages ("/tree/keys"). A read that fails its checksum
   // says so.
@@ -102,8 +123,13 @@ class H5Io {
  private:
   std::string file_;
   Mode mode_;
-  bool require_checksums_ = false;
+  MPI_Comm comm_ = MPI_COMM_NULL;
+  int version_ = 1;  // reading: 1 carries no checksums
 };
+
+// A file access property list for writing on the processes of comm (MPI-IO), with the
+// checksummed format features of checksummed_file_access.
+Handle mpio_file_access(MPI_Comm comm);
 
 // The property list that makes HDF5 checksum all of a file's metadata (superblock v2+,
 // object headers v2, checksummed chunk indexes): format features of HDF5 1.10.

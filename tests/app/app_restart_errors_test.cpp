@@ -103,3 +103,55 @@ TEST_F(AppRestartErrors, FlippedByteInsideADataset) {
 
 }  // namespace
 }  // namespace capsflow::app
+
+namespace capsflow::app {
+namespace {
+
+// A checkpoint of format version 2 (FNV-1a checksums, before the collective writer of
+// version 3; tests/app/data/README.md) still restarts, and its checksums still guard it.
+class AppRestartFormatTwo : public ::testing::Test {
+ protected:
+  AppRestartFormatTwo() : dir_(scratch("restart_format_two")) {
+    case_ = write(dir_, "case.toml", test_cases::small_cavity());
+    fs::copy_file(fs::path(CAPSFLOW_APP_TEST_DATA) / "checkpoint_v2_small_cavity.h5", checkpoint());
+  }
+  fs::path checkpoint() const { return dir_ / "checkpoint_v2.h5"; }
+  Result restart() const {
+    return capsflow("run " + case_.string() + " --quiet --set fluid.carry_faces=true --set output.vtu=false --out " +
+                        (dir_ / "out").string() + " --restart " + checkpoint().string(),
+                    dir_);
+  }
+  fs::path dir_, case_;
+};
+
+TEST_F(AppRestartFormatTwo, Restarts) {
+  const Result r = restart();
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string rows = slurp(dir_ / "out" / "diagnostics.csv");
+  EXPECT_THAT(rows, HasSubstr("\n2,0.02,0.01,214,4,")) << "step 2 from the checkpoint's step 1: " << rows;
+}
+
+TEST_F(AppRestartFormatTwo, ItsChecksumsStillGuardIt) {
+  tree::Tree<2> t({.roots = {1, 1}, .max_level = 4});
+  for (const char* name : {"u.x", "u.y", "p", "pf", "g.x", "g.y"}) (void)t.add_field({.name = name});
+  (void)io::read_checkpoint(checkpoint(), t);
+  // A value of u.x that occurs once in the file, one bit of its third byte flipped.
+  std::string bytes = slurp(checkpoint());
+  std::size_t at = std::string::npos;
+  for (const tree::Index c : t.leaves()) {
+    const auto pattern = std::bit_cast<std::array<char, 8>>(t.values(0)[c]);
+    const std::string_view p(pattern.data(), 8);
+    at = bytes.find(p);
+    if (at != std::string::npos && bytes.find(p, at + 1) == std::string::npos && t.values(0)[c] != 0.0) break;
+    at = std::string::npos;
+  }
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 2] = static_cast<char>(bytes[at + 2] ^ 0x01);
+  std::ofstream(checkpoint(), std::ios::binary | std::ios::trunc) << bytes;
+  const Result r = restart();
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("dataset /fields/u.x fails its checksum: the file is corrupt"));
+}
+
+}  // namespace
+}  // namespace capsflow::app

@@ -12,6 +12,7 @@
 #include <span>
 
 #include "io/checkpoint.hpp"
+#include "io/h5_file.hpp"
 #include "scratch_dir.hpp"
 
 namespace capsflow::io {
@@ -301,6 +302,29 @@ TEST_F(io_checkpoint, BadNamesAreRejectedBeforeWriting) {
   const std::vector<ExtraArray> wrong_shape{{.name = "x", .shape = {2, 2}, .values = {1.0}}};
   EXPECT_THROW(write_checkpoint(dir_.path() / "bad.h5", saved_, kScalars, wrong_shape), std::invalid_argument);
   EXPECT_FALSE(std::filesystem::exists(dir_.path() / "bad.h5"));
+}
+
+// Format version 3's checksum: the ranks' sums over their own rows add up to the whole
+// array's (whatever the split), and a zeroed, swapped or flipped value changes it.
+TEST(CheckpointChecksum, RanksSumsAddUpAndEveryDamageShows) {
+  std::vector<double> v(1000);
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = std::sin(0.1 * static_cast<double>(i)) * 1e3;
+  const std::uint64_t whole = detail::indexed_checksum(v.data(), v.size(), 0);
+  for (const std::size_t split : {std::size_t{0}, std::size_t{1}, std::size_t{377}, std::size_t{999}})
+    EXPECT_EQ(detail::indexed_checksum(v.data(), split, 0) + detail::indexed_checksum(v.data() + split, v.size() - split, split),
+              whole);
+  std::vector<double> zeroed = v;
+  std::fill(zeroed.begin() + 100, zeroed.begin() + 164, 0.0);
+  EXPECT_NE(detail::indexed_checksum(zeroed.data(), zeroed.size(), 0), whole);
+  std::vector<double> swapped = v;
+  std::swap(swapped[3], swapped[700]);
+  EXPECT_NE(detail::indexed_checksum(swapped.data(), swapped.size(), 0), whole);
+  std::vector<double> flipped = v;
+  flipped[500] = std::bit_cast<double>(std::bit_cast<std::uint64_t>(flipped[500]) ^ 1u);
+  EXPECT_NE(detail::indexed_checksum(flipped.data(), flipped.size(), 0), whole);
+  // All zeros still sum to something that is not zero.
+  const std::vector<double> zeros(64, 0.0);
+  EXPECT_NE(detail::indexed_checksum(zeros.data(), zeros.size(), 0), 0u);
 }
 
 }  // namespace

@@ -36,8 +36,12 @@ for n in 2 3; do
   cmp -s "$dir/serial/cells_final.csv" "$dir/np$n/cells_final.csv" || fail "$n ranks: cells_final.csv differs"
   [ "$(ls "$dir/serial" | grep -c vtu)" -eq "$(ls "$dir/np$n" | grep -c vtu)" ] || fail "$n ranks: snapshot count"
   [ -s "$dir/err$n" ] && fail "$n ranks wrote to stderr: $(cat "$dir/err$n")"
+  # Every rank writes its own rows into the one file: the file one rank writes (h5diff: every
+  # dataset and attribute, the checksums included).
+  h5diff "$dir/serial/checkpoint_000020.h5" "$dir/np$n/checkpoint_000020.h5" > /dev/null ||
+    fail "$n ranks: the checkpoint differs from one rank's"
 done
-echo "2 and 3 ranks: diagnostics and final cells identical to one rank"
+echo "2 and 3 ranks: diagnostics, final cells and checkpoints identical to one rank"
 
 # Snapshots on N ranks: fluid_NNNNNN.pvtu with one piece per rank, read back with VTK's XML
 # reader, hold the cells and values of one rank's fluid_NNNNNN.vtu.
@@ -225,3 +229,10 @@ for n in 1 3; do
     fail "checkpoint of 2 ranks restarted on $n: final nodes differ from the uninterrupted run"
   echo "capsule checkpoint of 2 ranks restarted on $n: the uninterrupted run's rows and nodes"
 done
+# The adaptive tree's levels, the capsule and the faces, written collectively on 3 ranks: the
+# checkpoint one rank writes at the same step.
+last=$(ls "$dir/seed-restart-1" | grep '^checkpoint_' | sort | tail -1)
+[ "$last" != checkpoint_000010.h5 ] || fail "the restarted runs wrote no checkpoint of their own"
+h5diff "$dir/seed-restart-1/$last" "$dir/seed-restart-3/$last" > /dev/null ||
+  fail "the capsule checkpoint written on 3 ranks differs from one rank's ($last)"
+echo "capsule checkpoint written on 3 ranks: the one of 1 rank ($last)"
