@@ -26,6 +26,7 @@
 #include "app/rank_zero.hpp"
 #include "fluid/adaptation.hpp"
 #include "fluid/navier_stokes.hpp"
+#include "fluid/time_step.hpp"
 #include "io/atomic_write.hpp"
 #include "io/case_config.hpp"
 #include "io/checkpoint.hpp"
@@ -100,6 +101,7 @@ class FlowRun {
       if (!c.capsules.empty()) {
         capsules_ = std::make_unique<CapsuleSet>(c, ns_);
         adaptation_.set_bodies(&capsules_->coupling());
+        time_step_.attach(capsules_->coupling());
       }
     budget_.emplace(ns_, capsules_ ? &capsules_->coupling() : nullptr);
   }
@@ -176,14 +178,11 @@ class FlowRun {
     while (ns_.time() < t_end * (1 - 1e-12)) {
       ns_.limit_dt(std::min(t_end - ns_.time(), membrane_cap));
       fluid::StepStats st;
-      if (capsules_) {
-        try {
-          st = capsules_->coupling().step().fluid;
-        } catch (const std::runtime_error& e) {
-          throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
-        }
-      } else {
-        st = ns_.step();
+      try {
+        st = time_step_.run();
+      } catch (const std::runtime_error& e) {
+        if (!capsules_) throw;  // a capsule's stage failed: a blow-up of this run
+        throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
       }
       ++step;
       check_convergence(st, step);
@@ -451,6 +450,7 @@ class FlowRun {
   }
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
+  fluid::TimeStep<D> time_step_{ns_};  // stages 1-5; the bodies (capsules) attach to it
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
   std::optional<EnergyBudget<D>> budget_;  // the energy columns of diagnostics.csv
   ProgressLine progress_;

@@ -427,41 +427,57 @@ void CapsuleCoupling::predict_midpoint(int step) {
   times_.interpolation += seconds_since(t0);
 }
 
-double CapsuleCoupling::fluid_step(CouplingStep& out) {
-  face_seconds_ = 0.0;
-  const auto t0 = Clock::now();
-  try {
-    out.fluid = ns_.step();
-  } catch (...) {
-    force_ready_ = false;  // the spread force belongs to the step that failed
-    throw;
+// The stages of a coupled step (fluid/time_step.hpp); on N ranks each has its routed form
+// (capsule_distribution.cpp). Every stage of a step takes its stencils at the stage positions
+// (X*, or X), on one tree: the adaptation comes after the step.
+void CapsuleCoupling::forces() {
+  const int step = static_cast<int>(steps_ + 1);
+  if (distributed()) {
+    distributed_forces(step);
+    return;
   }
+  if (scheme_ == NodeScheme::midpoint) place_midpoints();
+  compute_forces(step);
+}
+
+void CapsuleCoupling::spreading() {
+  const int step = static_cast<int>(steps_ + 1);
+  if (distributed()) {
+    distributed_spreading(step);
+    return;
+  }
+  find_boxes(capsules_.size(), [this](std::size_t k) { return stage_positions(capsule(static_cast<int>(k))); },
+             [this](std::size_t k) -> const KernelChoice& { return kernels_[k]; }, {});
+  spread_forces(step);
+  if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);  // J(X*) u^n, before the flow changes u
+}
+
+void CapsuleCoupling::flow_failed() { force_ready_ = false; }  // the spread force belongs to the step that failed
+
+void CapsuleCoupling::interpolation() {
+  const int step = static_cast<int>(steps_ + 1);
   force_ready_ = false;
-  const double previous_dt = last_dt_;
-  last_dt_ = out.fluid.dt;
-  times_.fluid += seconds_since(t0) - face_seconds_;  // the face force is spread inside the step
+  if (distributed()) distributed_interpolation(step);
+  else interpolate_velocities(step);
+  boxes_.clear();
+}
+
+void CapsuleCoupling::motion(const fluid::StepStats& flow, double flow_seconds) {
+  const int step = static_cast<int>(steps_ + 1);
+  times_.fluid += flow_seconds - face_seconds_;  // the face force is spread inside the flow step
   times_.spreading += face_seconds_;
-  return previous_dt;
+  face_seconds_ = 0.0;
+  const double previous_dt = last_dt_;
+  last_dt_ = flow.dt;
+  collectively([&] { advance_nodes(step, flow.dt, previous_dt); });
+  ++steps_;
+  ++since_adapt_;
 }
 
 CouplingStep CapsuleCoupling::step() {
-  const int step = static_cast<int>(steps_ + 1);
-  if (distributed()) return distributed_step(step);
-  CouplingStep out;
-  if (scheme_ == NodeScheme::midpoint) place_midpoints();
-  // Every stage of this step reads its stencils at the stage positions, on this tree.
-  find_boxes(capsules_.size(), [this](std::size_t k) { return stage_positions(capsule(static_cast<int>(k))); },
-             [this](std::size_t k) -> const KernelChoice& { return kernels_[k]; }, {});
-  if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);
-  compute_forces(step);
-  spread_forces(step);
-  const double previous_dt = fluid_step(out);
-  interpolate_velocities(step);
-  boxes_.clear();
-  advance_nodes(step, out.fluid.dt, previous_dt);
-  ++steps_;
-  ++since_adapt_;
-  return out;
+  fluid::TimeStep<3> one(ns_);
+  one.attach(*this);
+  return {one.run()};
 }
 
 }  // namespace capsflow::ibm

@@ -11,6 +11,8 @@
 //      r = dt / dt_prev (Adams-Bashforth 2; its first step is Euler),
 //      or, with NodeScheme::midpoint, stages 1, 2 and 4 at X* = X(t) + (dt/2) V^(n-1) and
 //      X(t + dt) = X(t) + dt (J(X*) u(t) + J(X*) u(t + dt)) / 2,
+// These are the named stages of fluid/time_step.hpp (forces, spreading, flow, interpolation,
+// motion): the coupling attaches to a fluid::TimeStep, which runs the flow step between them;
 // then the run's adapt stage (fluid/adaptation.hpp), the same for runs without capsules:
 // velocity wavelets, walls at their level, and the membrane bands at the max level that this
 // class provides as a fluid::BodyRefinement, so that the next step's stencils exist.
@@ -48,6 +50,7 @@
 
 #include "fluid/adaptation.hpp"
 #include "fluid/navier_stokes.hpp"
+#include "fluid/time_step.hpp"
 #include "ibm/kernels.hpp"
 #include "ibm/node_routing.hpp"
 #include "ibm/refinement_tags.hpp"
@@ -116,7 +119,7 @@ struct [[nodiscard]] CouplingStep {
   fluid::StepStats fluid;
 };
 
-class CapsuleCoupling final : public fluid::BodyRefinement<3> {
+class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::StepBody {
  public:
   // Installs the face force on ns (removed again by the destructor): ns must outlive this.
   // margin: max-level cells tagged beyond the kernels' half support around every node.
@@ -171,7 +174,20 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   };
   [[nodiscard]] const Traffic& traffic() const { return traffic_; }
 
-  // One coupled step (stages 1-5); the caller's fluid::Adaptation adapts after it.
+  // The stages of a coupled step (fluid/time_step.hpp), for a fluid::TimeStep that runs the
+  // flow step between spreading and interpolation:
+  //   forces         X* (midpoint scheme) and the membrane forces there;
+  //   spreading      onto the faces the flow step reads (N ranks: routed to the owners of the
+  //                  stencils' cells), then J(X*) u^n (midpoint scheme);
+  //   interpolation  J u^(n+1) at the stage positions;
+  //   motion         X += dt (the scheme's velocity), each new position checked first.
+  void forces() override;
+  void spreading() override;
+  void flow_failed() override;
+  void interpolation() override;
+  void motion(const fluid::StepStats& flow, double flow_seconds) override;
+  // One coupled step with these stages alone (a TimeStep of this one body); the caller's
+  // fluid::Adaptation adapts after it.
   CouplingStep step();
 
   // The membrane bands, for fluid::Adaptation: every cell within `margin` cells beyond the
@@ -273,12 +289,10 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3> {
   // The face velocity the midpoint predictor interpolates u^n from (start_faces_ when the
   // flow holds no projected faces).
   const fluid::FaceField<3>& start_face_velocity();
-  // The flow step between spreading and interpolation, timed apart from the face spreading it
-  // calls; returns the dt of the step before it (the node update's AB2 reads it).
-  double fluid_step(CouplingStep& out);
-
-  // N ranks (capsule_distribution.cpp).
-  CouplingStep distributed_step(int step);
+  // N ranks (capsule_distribution.cpp): the routed forms of the stages.
+  void distributed_forces(int step);
+  void distributed_spreading(int step);
+  void distributed_interpolation(int step);
   void migrate();  // owned capsules whose centroid left this rank's cells go to its owner
   [[nodiscard]] int owner_of(const Eigen::Matrix3Xd& x) const;
   [[nodiscard]] OwnedPositions owned_positions() const;

@@ -187,8 +187,7 @@ void CapsuleCoupling::interpolate_routed(int step, const fluid::FaceField<3>& uf
   });
 }
 
-CouplingStep CapsuleCoupling::distributed_step(int step) {
-  CouplingStep out;
+void CapsuleCoupling::distributed_forces(int step) {
   for (const KernelChoice& kc : kernels_)
     if (!kc.staggered)
       throw std::invalid_argument("ibm: the cell-centred coupling (staggered = false) runs on one rank only");
@@ -197,6 +196,9 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
     if (scheme_ == NodeScheme::midpoint) place_midpoints();
     compute_forces(step);
   });
+}
+
+void CapsuleCoupling::distributed_spreading(int step) {
   auto t0 = Clock::now();
   routed_ = route([this](const Capsule& c) -> const Eigen::Matrix3Xd& { return stage_positions(c); }, true,
                   [this](int k) { return stencil_reach(k); });
@@ -221,17 +223,14 @@ CouplingStep CapsuleCoupling::distributed_step(int step) {
     interpolate_routed(step, start_face_velocity(), [](Capsule& c) -> Eigen::Matrix3Xd& { return c.start_velocity; });
     times_.interpolation += seconds_since(t0);
   }
-  const double previous_dt = fluid_step(out);
-  t0 = Clock::now();
+}
+
+void CapsuleCoupling::distributed_interpolation(int step) {
+  const auto t0 = Clock::now();
   for (int k = 0; k < num_capsules(); ++k)
     if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);
   interpolate_routed(step, ns_.face_velocity(), [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
-  boxes_.clear();
   times_.interpolation += seconds_since(t0);
-  collectively([&] { advance_nodes(step, out.fluid.dt, previous_dt); });
-  ++steps_;
-  ++since_adapt_;
-  return out;
 }
 
 std::int64_t CapsuleCoupling::leaf_weight(int level, tree::Key key, std::int64_t band_weight) const {

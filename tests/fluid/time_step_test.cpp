@@ -1,0 +1,87 @@
+// fluid::TimeStep (the named stages of a step): every attached body runs each stage before
+// the next one starts, in the order of attachment, with the flow step between spreading and
+// interpolation; motion gets the flow step's own statistics; a flow step that throws tells
+// every body (flow_failed) and reaches the caller, and no later stage runs.
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "fluid/time_step.hpp"
+
+namespace capsflow::fluid {
+namespace {
+
+struct Recorder final : StepBody {
+  Recorder(std::string name, std::vector<std::string>& log) : name(std::move(name)), log(log) {}
+  void forces() override { log.push_back(name + ".forces"); }
+  void spreading() override { log.push_back(name + ".spreading"); }
+  void flow_failed() override { log.push_back(name + ".flow_failed"); }
+  void interpolation() override { log.push_back(name + ".interpolation"); }
+  void motion(const StepStats& flow, double seconds) override {
+    log.push_back(name + ".motion");
+    seen = flow;
+    flow_seconds = seconds;
+  }
+  std::string name;
+  std::vector<std::string>& log;
+  StepStats seen;
+  double flow_seconds = -1.0;
+};
+
+struct Box {
+  static FlowOptions<2> flow() {
+    FlowOptions<2> o{.Re = 1.0, .stokes = true, .dt = 0.01};
+    for (auto& s : o.boundaries) s.kind = SideKind::wall;
+    return o;
+  }
+  Box() { (void)tree.refine_to([](const tree::Box<2>&) { return 3; }); }
+  tree::Tree<2> tree{tree::TreeOptions<2>{.roots = {1, 1}, .root_size = 1.0, .max_level = 3}};
+  NavierStokes<2> ns{tree, flow()};
+};
+
+TEST(TimeStep, EachStageRunsForEveryBodyInOrderAroundTheFlowStep) {
+  Box box;
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  TimeStep<2> step(box.ns);
+  step.attach(a);
+  step.attach(b);
+  // The flow step reads its face force between spreading and interpolation.
+  box.ns.set_face_force([&](const tree::Tree<2>&, FaceField<2>&) { log.push_back("flow"); });
+  const StepStats st = step.run();
+  const std::vector<std::string> expected{"a.forces",        "b.forces",        "a.spreading", "b.spreading", "flow",
+                                          "a.interpolation", "b.interpolation", "a.motion",    "b.motion"};
+  EXPECT_EQ(log, expected);
+  EXPECT_EQ(a.seen.t, st.t);
+  EXPECT_EQ(a.seen.dt, st.dt);
+  EXPECT_EQ(b.seen.cycles(), st.cycles());
+  EXPECT_DOUBLE_EQ(st.t, 0.01);
+  EXPECT_GE(a.flow_seconds, 0.0);
+}
+
+TEST(TimeStep, AFailedFlowStepTellsEveryBodyAndStopsTheStep) {
+  Box box;
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  TimeStep<2> step(box.ns);
+  step.attach(a);
+  step.attach(b);
+  box.ns.set_face_force([](const tree::Tree<2>&, FaceField<2>&) { throw std::runtime_error("the flow failed"); });
+  EXPECT_THROW((void)step.run(), std::runtime_error);
+  const std::vector<std::string> expected{"a.forces", "b.forces", "a.spreading", "b.spreading", "a.flow_failed",
+                                          "b.flow_failed"};
+  EXPECT_EQ(log, expected);
+}
+
+TEST(TimeStep, WithoutBodiesItIsTheFlowStep) {
+  Box stepped, plain;
+  TimeStep<2> step(stepped.ns);
+  const StepStats a = step.run(), b = plain.ns.step();
+  EXPECT_EQ(a.t, b.t);
+  EXPECT_EQ(a.cycles(), b.cycles());
+}
+
+}  // namespace
+}  // namespace capsflow::fluid
