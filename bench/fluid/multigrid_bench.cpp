@@ -1,5 +1,5 @@
 // multigrid/… benchmarks: Poisson on uniform 64^3 and 128^3 cubes and on the seed channel
-// refined around the capsule shell. Reported per V-cycle (residual and halo/ghost filling
+// refined around the capsule shell. Reported per V-cycle (residual and halo/boundary filling
 // included), in seconds, in ns per leaf and in dense 7-point Jacobi sweeps over as many
 // cells as there are leaves (the unknowns; bench/baseline.hpp), plus cycles to reach 1e-3
 // from zero and from the previous solution (the warm start of a time step).

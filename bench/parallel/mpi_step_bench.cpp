@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
     if (traffic.whole_exchanges > 0) whole_fields = double(traffic.whole_exchange_fields) / double(traffic.whole_exchanges);
   }
   const auto leaves = static_cast<long long>(t.global_leaves());  // collective: every rank
-  // The local tree's cells (owned, ghosts, placeholders, halos and wall ghosts: what each
+  // The local tree's cells (owned, ghosts, placeholders, halos and boundary cells: what each
   // rank's fields hold), the busiest rank's: against one rank's tree, the memory per rank.
   const auto local_cells = static_cast<long long>(parallel::global_max(comm, std::int64_t{t.num_cells()}));
   if (comm.is_root())

@@ -17,7 +17,7 @@ double duct_flow_rate(double a, double b);
 inline double duct_mean_velocity(double a, double b) { return duct_flow_rate(a, b) / (4.0 * a * b); }
 
 // duct_velocity for one duct, each point's series summed once. An inflow side asks for the
-// same face centres at every ghost fill (several per multigrid cycle), and the series costs
+// same face centres at every boundary fill (several per multigrid cycle), and the series costs
 // 401 terms of two exponentials and a cosine: without the memo it was half the time of the
 // adaptive duct case. Values are duct_velocity's, bit for bit. Copies share the memo; calls
 // may come from several threads. The points asked are the face centres of a finite set of

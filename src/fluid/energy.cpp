@@ -76,7 +76,7 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   tree::Tree<D>& t = ns.tree();
   std::array<tree::FieldId, D> ids;
   for (int d = 0; d < D; ++d) ids[d] = ns.velocity(d);
-  t.sync(std::span<const tree::FieldId>(ids));  // ghosts hold the boundary values at ns.time()
+  t.sync(std::span<const tree::FieldId>(ids));  // boundary cells hold the boundary values at ns.time()
   std::array<std::span<const double>, D> u;
   for (int d = 0; d < D; ++d) u[d] = t.values(ids[d]);
   const std::span<const double> p = t.values(ns.pressure());
@@ -96,32 +96,32 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   const auto [dissipation, boundary] = face_sums<D, 2>(t, [&](int d, Index lo, Index hi, double h,
                                                               const tree::Level<D>& lv) -> std::array<double, 2> {
     const double mu = variable ? ns.face_viscosity(d, lo, hi, lv) : 1.0;
-    const Index ghost = std::max(lo, hi);  // ghosts come last in a level
-    if (ghost < lv.ghost_begin()) {
+    const Index outer = std::max(lo, hi);  // boundary cells come last in a level
+    if (outer < lv.boundary_begin()) {
       double s = 0.0;
       for (int k = 0; k < D; ++k) s += (u[k][hi] - u[k][lo]) * (u[k][hi] - u[k][lo]);
       // Next to a coarser leaf (a halo cell on one side) the face stands for the dual cell
       // from the coarse centre to the fine one, 1.5 h long: the dual cells then tile the
       // domain along d, and the sum stays second order on adaptive grids.
-      const double dual = ghost >= lv.halo_begin() ? 1.5 : 1.0;
+      const double dual = outer >= lv.halo_begin() ? 1.5 : 1.0;
       return {dual * mu * s, 0.0};
     }
-    const Index c = ghost == hi ? lo : hi;
+    const Index c = outer == hi ? lo : hi;
     double jump2 = 0.0, work = 0.0, speed2 = 0.0;
     for (int k = 0; k < D; ++k) {
-      const double at_face = 0.5 * (u[k][ghost] + u[k][c]);
-      const double jump = u[k][ghost] - u[k][c];  // h times the outward derivative
+      const double at_face = 0.5 * (u[k][outer] + u[k][c]);
+      const double jump = u[k][outer] - u[k][c];  // h times the outward derivative
       jump2 += jump * jump;
       work += at_face * jump;
       speed2 += at_face * at_face;
     }
     // The pressure on the side from its condition (homogeneous: 0 where Dirichlet, the cell's
-    // value where Neumann), not from the ghost, which the projection need not have refreshed.
-    const int side = lv.ghost_side[static_cast<std::size_t>(ghost - lv.ghost_begin())];
+    // value where Neumann), not from the boundary cell, which the projection need not have refreshed.
+    const int side = lv.boundary_side[static_cast<std::size_t>(outer - lv.boundary_begin())];
     const double p_side = conditions.pressure.side[side].kind == tree::BcKind::dirichlet ? 0.0 : p[c];
     const double area = volume_of<D>(h) / h;
-    const double normal = projected ? uf[d][hi] : 0.5 * (u[d][ghost] + u[d][c]);
-    const double un = ghost == hi ? normal : -normal;  // outward normal velocity
+    const double normal = projected ? uf[d][hi] : 0.5 * (u[d][outer] + u[d][c]);
+    const double un = outer == hi ? normal : -normal;  // outward normal velocity
     double power = mu * mu_constant * work * area / h - p_side * un * area;
     if (advection) power -= 0.5 * ns.cell_density(c) * speed2 * un * area;
     return {0.5 * mu * jump2, power};

@@ -14,7 +14,7 @@
 //   Phi = sum over fine faces (lo, hi) along d of w mu_f sum_k (u_k(hi) - u_k(lo))^2 h^(D-2)
 //         with w the length of the face's dual cell (between the two centres) in units of h:
 //         1, 1.5 next to a coarser leaf (lo or hi a halo cell: from the coarse centre to the
-//         fine one), 1/2 on a side of the brick (hi or lo a ghost holding the boundary value,
+//         fine one), 1/2 on a side of the brick (hi or lo a boundary cell holding the boundary value,
 //         2 g - u for Dirichlet, u + h g for Neumann: the half cell between the centre and the
 //         side). The dual cells tile the domain along each d, so Phi is second order on
 //         adaptive grids too. On a uniform grid Phi - P_b's viscous part is exactly
@@ -23,8 +23,8 @@
 //   P_f = sum over fine faces of f_d uf_d h^D, f the solver's face force of the last step
 //         and uf the projected face velocity: with the spread force of a membrane this is
 //         exactly sum_nodes F . V when spreading and interpolation are adjoint.
-//   P_b on each boundary face: the face values u_b = (u_ghost + u_c)/2, du/dn =
-//         (u_ghost - u_c)/h (outward), p_b = 0 where the pressure is Dirichlet (outflow) and
+//   P_b on each boundary face: the face values u_b = (u_out + u_c)/2, du/dn =
+//         (u_out - u_c)/h (outward, u_out the boundary cell's), p_b = 0 where the pressure is Dirichlet (outflow) and
 //         p_c where it is Neumann (the solver's homogeneous conditions), and the projected
 //         face velocity's outward component for u.n.
 // The cell velocity u is the solver's state; the face velocity uf is what the projection

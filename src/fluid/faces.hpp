@@ -4,11 +4,11 @@
 // Convention: a face field is D cell-indexed arrays; uf[d][c] is the value on the LOWER
 // face of cell c along d. The upper face of a leaf c is then uf[d][n] with n its +d
 // neighbour, whatever n is: an active cell, a halo cell (the fine face at a jump to a
-// coarser region) or a ghost (the wall face). So every face of every leaf has one slot.
+// coarser region) or a boundary cell (the wall face). So every face of every leaf has one slot.
 //
 // Which faces are computed: the fine side of every face. A leaf computes its lower faces,
 // except where its lower neighbour is a parent (that face is coarse), and its upper faces
-// where the upper neighbour is a halo cell or a ghost (nobody else owns them). Coarse faces
+// where the upper neighbour is a halo cell or a boundary cell (nobody else owns them). Coarse faces
 // (between a leaf and a parent of its level) then get the mean of the 2^(D-1) fine faces
 // covering them (restrict_faces): what crosses the fine faces crosses the coarse one, so
 // the divergence of a face field sums to the boundary flux exactly.

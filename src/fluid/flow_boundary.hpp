@@ -1,7 +1,7 @@
 #pragma once
 // Flow boundary conditions per side of the brick, and what they mean for each field.
 //
-//   side kind    velocity (ghosts)                          pressure
+//   side kind    velocity (boundary cells)                  pressure
 //   wall         Dirichlet 0                                Neumann 0
 //   moving_wall  Dirichlet: the wall's tangential velocity  Neumann 0
 //   inflow       Dirichlet: profile along the normal, 0     Neumann 0

@@ -41,7 +41,7 @@ double face_coefficient(const tree::Level<D>& lv, const std::vector<double>& coe
                               : coef[static_cast<std::size_t>(lo) * (2 * D) + 2 * d + 1];
 }
 
-// out = T_i (above) on the leaves. u: the D velocity components, synced (ghosts, halos and
+// out = T_i (above) on the leaves. u: the D velocity components, synced (boundary cells, halos and
 // parents valid); mu_cells on the leaves; mu_faces from face_coefficients(.., harmonic).
 template <int D>
 void transpose_stress(const tree::Tree<D>& t, const std::array<std::span<const double>, D>& u,

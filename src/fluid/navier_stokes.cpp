@@ -294,9 +294,9 @@ void NavierStokes<D>::acceleration(double dt) {
       // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
       // wall carries the normal force: no acceleration there, so the face keeps its
       // prescribed velocity and the homogeneous Neumann pressure balances the rest exactly.
-      const Index ghost = std::max(lo, hi);
-      if (ghost >= lv.ghost_begin() &&
-          conditions_.pressure.side[lv.ghost_side[ghost - lv.ghost_begin()]].kind == tree::BcKind::neumann) {
+      const Index outside = std::max(lo, hi);
+      if (outside >= lv.boundary_begin() &&
+          conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann) {
         force_[d][hi] = 0.0;
         return;
       }

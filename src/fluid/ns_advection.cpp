@@ -17,7 +17,7 @@
 // 1.3x from 64^2 to 128^2 without it).
 // At a resolution jump whose upwind cell is a halo cell (the coarse side), the coarse
 // leaf's slope is used and the transverse term dropped: first order there, only there.
-// An upwind ghost (inflow) gives the boundary value.
+// An upwind boundary cell (inflow) gives the boundary value.
 #include <algorithm>
 #include <cmath>
 
@@ -54,7 +54,7 @@ double bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, d
                 std::span<const double> src, double src_step, double dt, Transverse&& vt) {
   const double s = un > 0.0 ? 1.0 : -1.0;
   const Index i = s > 0.0 ? lo : hi;
-  if (i >= lv.ghost_begin()) return 0.5 * (f[lo] + f[hi]);  // boundary value
+  if (i >= lv.boundary_begin()) return 0.5 * (f[lo] + f[hi]);  // boundary value
   double v = f[i] + s * (1.0 - s * un) * slope[d][i] * 0.5 * h + src_step * src[i];
   if (i >= lv.active_end()) return v;  // halo: no transverse neighbours
   const Index* row = lv.face_row(i);

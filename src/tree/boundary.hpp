@@ -1,12 +1,12 @@
 #pragma once
 // Boundary conditions of a cell field on the non-periodic sides of the brick.
 //
-// They act through ghost cells: a ghost g outside side s takes its value from its source
-// cell c (one cell inward across s, of the same level):
-//   Dirichlet u = g(x_b):       u_ghost = 2 g(x_b) - u_c
-//   Neumann   du/dn = g(x_b):   u_ghost = u_c + h g(x_b)          (n the outward normal)
+// They act through boundary cells (tree.hpp): a boundary cell b outside side s takes its
+// value from its source cell c (one cell inward across s, of the same level):
+//   Dirichlet u = g(x_b):       u_b = 2 g(x_b) - u_c
+//   Neumann   du/dn = g(x_b):   u_b = u_c + h g(x_b)          (n the outward normal)
 // where x_b is the midpoint of the two centres, on the boundary. Both are exact for linear
-// fields. Edge and corner ghosts are filled after the ghosts they take their source from,
+// fields. Edge and corner boundary cells are filled after those they take their source from,
 // by the same rule applied across one of their sides, which keeps linear fields exact there.
 #include <array>
 #include <functional>

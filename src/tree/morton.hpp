@@ -89,7 +89,7 @@ constexpr bool coords_in_range(const Coords<D>& c) {
   return true;
 }
 
-// Coordinates must be non-negative and fit kKeyBitsPerDim bits (ghosts outside the brick
+// Coordinates must be non-negative and fit kKeyBitsPerDim bits (boundary cells outside the brick
 // have no keys).
 template <int D>
 constexpr Key morton_encode(const Coords<D>& c) {

@@ -4,26 +4,28 @@
 //
 // Cells and their index. Every cell that exists at level L has a slot in level L's block of
 // the global index space; the blocks follow each other by level, and a block is
-//   [ active cells | halo cells | ghost cells ]
+//   [ active cells | halo cells | boundary cells ]
 // - active cells are the leaves and their ancestors (parents), in Morton order;
 // - halo cells are the children of a leaf that touches a parent of its own level: they give
 //   every leaf of level L a full 3^D neighbourhood of level-L cells, holding values
 //   prolonged from the coarse leaf (Basilisk's multilevel trees do the same);
-// - ghost cells lie outside a non-periodic side and hold boundary-condition values.
+// - boundary cells lie outside a non-periodic side and hold boundary-condition values.
+// Words: a *boundary cell* is outside the brick (and, with embedded walls, will be outside the
+// fluid); a *ghost* is a cell another rank owns that this rank holds a copy of (N ranks).
 // A field is one flat array over all these slots (size num_cells()).
 //
 // Topology is rebuilt top-down after every change, in O(cells): the neighbours of the
 // children of a parent P are children of P's own neighbours, so each level's neighbour
 // tables come from the previous level's with no search and no hashing. Only active cells
-// have neighbour rows (halo and ghost cells are filled from their parent or source), which
+// have neighbour rows (halo and boundary cells are filled from their parent or source), which
 // keeps the topology near 120 bytes per active cell in 3D.
 //
 // Invariants kept by every change: the forest is 2:1 balanced across faces, edges and
 // corners; every active cell has all 3^D - 1 neighbours at its own level (active, halo or
-// ghost); siblings are contiguous; children appear in their parent's order.
+// boundary); siblings are contiguous; children appear in their parent's order.
 //
-// Partitioning (a later MPI issue): leaves are ordered along the Morton curve of each level
-// and a rebuild starts from a per-cell "refined" decision, so a partition can build the same
+// Partitioning (docs/parallel.md): leaves are ordered along the Morton curve of each level
+// and a rebuild starts from a per-cell "refined" decision, so a rank builds the same
 // structure from its own leaves plus a ghost layer without changing the rebuild.
 #include <array>
 #include <cstddef>
@@ -91,7 +93,7 @@ constexpr Index group_neighbor(Index first, const Index* gf, int b, int k) {
 template <int D>
 struct Level {
   Index base = 0;  // global index of the first cell of the level
-  Index n_active = 0, n_halo = 0, n_ghost = 0;
+  Index n_active = 0, n_halo = 0, n_boundary = 0;
   std::vector<Key> keys;                 // active then halo cells
   std::vector<Index> face;               // n_active rows of kFaces<D> neighbours
   std::vector<Index> diag;               // n_active rows of kDiagonals<D> neighbours
@@ -108,26 +110,26 @@ struct Level {
   std::vector<std::uint8_t> leaf;
   std::vector<Index> halo_parent;        // one per group of 2^D halo cells: the coarse leaf
   // The halo groups (0-based within the level's halo) that a face stencil of an active cell
-  // reads, directly or through a ghost, or that the quadratic prolongation of a read halo
+  // reads, directly or through a boundary cell, or that the quadratic prolongation of a read halo
   // group of the next level reads (its coarse leaf's 3^D block). Around a thin refined
   // shell about half the groups: the others touch the fine region by an edge or a corner.
   std::vector<Index> halo_read;
-  std::vector<Index> ghost_source;       // the cell a ghost takes its value from, or kNone
-  std::vector<std::int8_t> ghost_side;   // the side (2d or 2d+1) it is filled across
-  std::vector<Coords<D>> ghost_coords;   // integer coordinates (outside the brick)
-  std::vector<Index> ghost_fill;         // ghosts with a source, faces before edges before corners
-  Index ghost_fill_faces = 0;            // how many of them are face ghosts (sources inside)
+  std::vector<Index> boundary_source;    // the cell a boundary cell takes its value from, or kNone
+  std::vector<std::int8_t> boundary_side;  // the side (2d or 2d+1) it is filled across
+  std::vector<Coords<D>> boundary_coords;  // integer coordinates (outside the brick)
+  std::vector<Index> boundary_fill;      // those with a source, faces before edges before corners
+  Index boundary_fill_faces = 0;         // how many of them are across a face (sources inside)
   // Scratch of the rebuild, kept to avoid allocation.
   std::vector<Index> old_index;          // active cells: the same cell in the previous tree
   std::vector<std::uint8_t> mark;
 
-  Index size() const { return n_active + n_halo + n_ghost; }
+  Index size() const { return n_active + n_halo + n_boundary; }
   Index active_begin() const { return base; }
   Index active_end() const { return base + n_active; }
   Index halo_begin() const { return base + n_active; }
   Index halo_end() const { return base + n_active + n_halo; }
-  Index ghost_begin() const { return halo_end(); }
-  Index ghost_end() const { return base + size(); }
+  Index boundary_begin() const { return halo_end(); }
+  Index boundary_end() const { return base + size(); }
   // Row of the active cell c in the neighbour tables. Within each group of 2^D siblings
   // the rows are stored by colour (parity of i+j+k) first, so a red-black sweep reads half
   // of each group's rows per colour (kRowInGroup; the row arrays are padded to whole groups).
@@ -374,11 +376,11 @@ class Tree {
   // Active cells of level l get values prolonged from their parents (level l-1), whose
   // face neighbours must hold valid values (the multigrid's coarse-to-fine step).
   void prolong_level(int l, std::span<double> v, Prolongation p) const;
-  // Ghost cells of level l get the boundary-condition values (distributed: those whose
-  // source holds a real value, Tree::collect_held_wall_ghosts).
-  void fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const;
+  // Boundary cells of level l get the boundary-condition values (distributed: those whose
+  // source holds a real value, Tree::collect_held_boundary_fill).
+  void fill_boundary_cells(int l, std::span<double> v, const BoundaryConditions<D>& bc) const;
   // All of the above, in dependency order: restriction bottom-up, then level by level halo
-  // and ghosts top-down. After it every active cell reads valid values at all neighbours.
+  // and boundary cells top-down. After it every active cell reads valid values at all neighbours.
   void sync(std::span<double> v, const BoundaryConditions<D>& bc,
             Prolongation p = Prolongation::linear) const;
   void sync(FieldId f);
@@ -419,7 +421,7 @@ class Tree {
   AdaptCounts refine_to(const std::function<int(const Box<D>&)>& required_level,
                         int max_passes = 64);
 
-  // Bytes held by the topology (keys, neighbour tables, children, halo and ghost data,
+  // Bytes held by the topology (keys, neighbour tables, children, halo and boundary data,
   // leaf list), without fields and without rebuild scratch.
   std::size_t topology_bytes() const;
 
@@ -429,16 +431,16 @@ class Tree {
   // cell, whether it has children in the next tree; carries fields; swaps.
   void rebuild(const std::vector<std::uint8_t>& refined_next);
   void build_children(int l, std::vector<Level<D>>& next) const;
-  void finish_ghosts(Level<D>& lv, int l) const;
+  void finish_boundary_cells(Level<D>& lv, int l) const;
   void transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells);
   void collect_leaves();
   void collect_face_ghosts();  // face_ghosts_ for this distribution
   void collect_held_halos();   // held_halo_ for this distribution
-  void collect_held_wall_ghosts();  // held_ghost_fill_ for this distribution (after held_halo_)
-  // Checked builds, N ranks: the wall ghosts of level l that one rank would fill and this
-  // rank's held_ghost_fill_ drops get NaN (as poison_dropped_halos).
-  void poison_dropped_wall_ghosts(int l, std::span<double> v) const;
-  // sync's second half: halos (prolongation p, linear for none) and ghosts, level by level.
+  void collect_held_boundary_fill();  // held_boundary_fill_ for this distribution (after held_halo_)
+  // Checked builds, N ranks: the boundary cells of level l that one rank would fill and this
+  // rank's held_boundary_fill_ drops get NaN (as poison_dropped_halos).
+  void poison_dropped_boundary_cells(int l, std::span<double> v) const;
+  // sync's second half: halos (prolongation p, linear for none) and boundary cells, level by level.
   void fill_outside_leaves(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const;
   // Checked builds, N ranks: the halo groups of level l that one rank's fill would fill and
   // this rank's held_halo_ drops get NaN, so that a stencil reading one shows in the tests.
@@ -479,14 +481,14 @@ class Tree {
   // fill_halo skips them.
   std::array<std::vector<std::vector<Index>>, 2> held_halo_;  // [HaloCells], then level
   std::vector<std::vector<Index>> face_ghosts_;  // per level, distributed only
-  // Per level, distributed only: Level::ghost_fill without the wall ghosts whose source
-  // is a placeholder, a halo group held_halo_ drops, or such a ghost (an edge or corner
-  // filled from a dropped face ghost), in the same order; and how many are face ghosts.
-  // Their values come from values no owned stencil reads, so fill_ghosts skips them (seed
-  // shell, 2 ranks, 3 steps: fill_ghosts 8.60 M -> 6.82 M instructions a rank, against 9.37 M
+  // Per level, distributed only: Level::boundary_fill without the boundary cells whose source
+  // is a placeholder, a halo group held_halo_ drops, or such a boundary cell (an edge or corner
+  // filled from a dropped face one), in the same order; and how many are across a face.
+  // Their values come from values no owned stencil reads, so fill_boundary_cells skips them (seed
+  // shell, 2 ranks, 3 steps: fill_boundary_cells 8.60 M -> 6.82 M instructions a rank, against 9.37 M
   // on one rank).
-  std::vector<std::vector<Index>> held_ghost_fill_;
-  std::vector<Index> held_ghost_fill_faces_;
+  std::vector<std::vector<Index>> held_boundary_fill_;
+  std::vector<Index> held_boundary_fill_faces_;
   Index num_cells_ = 0;
 
   std::vector<FieldSpec<D>> fields_;

@@ -2,15 +2,15 @@
 //
 // Level 0 is the brick of roots. For each level l, given its cells, which of them are
 // parents in the new tree, and their neighbour rows:
-//   A. mark every leaf and ghost of level l that is a neighbour of a parent: leaves get halo
-//      children, ghosts get ghost children (2:1 balance guarantees a parent's neighbours are
-//      active cells or ghosts, never halo cells);
-//   B. allocate level l+1 as [children of parents | halo children | ghost children], each in
+//   A. mark every leaf and boundary cell of level l that is a neighbour of a parent: leaves
+//      get halo children, boundary cells get boundary children (2:1 balance guarantees a
+//      parent's neighbours are active cells or boundary cells, never halo cells);
+//   B. allocate level l+1 as [children of parents | halo children | boundary children], each in
 //      its parent's (Morton) order;
 //   C. for each parent P, the 4^D block of level-(l+1) cells around P's children consists of
 //      children of P's 3^D neighbourhood (all of which now have children), so each child's
 //      3^D - 1 neighbours are read from that block: no search, O(1) per entry.
-// A ghost's source (the cell it is filled from) is found in the same block.
+// A boundary cell's source (the cell it is filled from) is found in the same block.
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
@@ -81,9 +81,9 @@ std::int64_t extent(const TreeOptions<D>& o, int d, int l) {
   return static_cast<std::int64_t>(o.roots[d]) << l;
 }
 
-// The side a ghost is filled across: its first direction outside the brick.
+// The side a boundary cell is filled across: its first direction outside the brick.
 template <int D>
-std::int8_t ghost_side_of(const TreeOptions<D>& o, const Coords<D>& c, int l) {
+std::int8_t boundary_side_of(const TreeOptions<D>& o, const Coords<D>& c, int l) {
   for (int d = 0; d < D; ++d) {
     if (c[d] < 0) return static_cast<std::int8_t>(2 * d);
     if (c[d] >= extent(o, d, l)) return static_cast<std::int8_t>(2 * d + 1);
@@ -149,9 +149,9 @@ void Tree<D>::build_level0(Level<D>& lv, bool has_previous) {
     lv.keys[i] = roots[i].first;
     root_index[dense(roots[i].second)] = i;
   }
-  // Neighbours: wrap periodic directions, collect ghosts beyond the others.
-  std::map<Coords<D>, Index> ghosts;
-  std::vector<Coords<D>> ghost_coords;
+  // Neighbours: wrap periodic directions, collect boundary cells beyond the others.
+  std::map<Coords<D>, Index> boundary;
+  std::vector<Coords<D>> boundary_coords;
   auto neighbour_of = [&](const Coords<D>& c, bool create) -> Index {
     Coords<D> w = c;
     bool outside = false;
@@ -161,13 +161,13 @@ void Tree<D>::build_level0(Level<D>& lv, bool has_previous) {
       else outside = true;
     }
     if (!outside) return root_index[dense(w)];
-    auto it = ghosts.find(w);
-    if (it != ghosts.end()) return -2 - it->second;
+    auto it = boundary.find(w);
+    if (it != boundary.end()) return -2 - it->second;
     if (!create) return kNone;
-    const auto g = static_cast<Index>(ghost_coords.size());
-    ghosts.emplace(w, g);
-    ghost_coords.push_back(w);
-    return -2 - g;  // provisional: ghost g
+    const auto g = static_cast<Index>(boundary_coords.size());
+    boundary.emplace(w, g);
+    boundary_coords.push_back(w);
+    return -2 - g;  // provisional: boundary cell g
   };
   const std::size_t padded = static_cast<std::size_t>((n + kChildren<D> - 1) / kChildren<D> * kChildren<D>);
   lv.face.assign(padded * kFaces<D>, kNone);
@@ -179,49 +179,50 @@ void Tree<D>::build_level0(Level<D>& lv, bool has_previous) {
       for (int d = 0; d < D; ++d) c[d] += kOffsets<D>[s][d];
       rows[static_cast<std::size_t>(i) * kStencil<D> + s] = neighbour_of(c, true);
     }
-  lv.n_ghost = static_cast<Index>(ghost_coords.size());
-  const Index ghost_begin = lv.ghost_begin();
+  lv.n_boundary = static_cast<Index>(boundary_coords.size());
+  const Index boundary_begin = lv.boundary_begin();
   for (Index i = 0; i < lv.n_active; ++i)
     for (int s = 0; s < kStencil<D>; ++s) {
       Index nb = rows[static_cast<std::size_t>(i) * kStencil<D> + s];
-      if (nb < 0) nb = ghost_begin + (-2 - nb);
+      if (nb < 0) nb = boundary_begin + (-2 - nb);
       const std::size_t r = Level<D>::row_of(i);
       if (s < kFaces<D>) lv.face[r * kFaces<D> + s] = nb;
       else lv.diag[r * kDiagonals<D> + s - kFaces<D>] = nb;
     }
-  lv.ghost_coords = ghost_coords;
-  lv.ghost_side.resize(lv.n_ghost);
-  lv.ghost_source.assign(lv.n_ghost, kNone);
-  for (Index g = 0; g < lv.n_ghost; ++g) {
-    const auto side = ghost_side_of<D>(o, ghost_coords[g], 0);
-    lv.ghost_side[g] = side;
-    Coords<D> src = ghost_coords[g];
+  lv.boundary_coords = boundary_coords;
+  lv.boundary_side.resize(lv.n_boundary);
+  lv.boundary_source.assign(lv.n_boundary, kNone);
+  for (Index g = 0; g < lv.n_boundary; ++g) {
+    const auto side = boundary_side_of<D>(o, boundary_coords[g], 0);
+    lv.boundary_side[g] = side;
+    Coords<D> src = boundary_coords[g];
     src[side / 2] += (side & 1) ? -1 : 1;
     const Index s = neighbour_of(src, false);
-    lv.ghost_source[g] = s < -1 ? ghost_begin + (-2 - s) : s;
+    lv.boundary_source[g] = s < -1 ? boundary_begin + (-2 - s) : s;
   }
   lv.first_child.assign(lv.size(), kNone);
   lv.leaf.resize(lv.n_active);
   lv.halo_parent.clear();
   lv.old_index.resize(lv.n_active);
   for (Index i = 0; i < lv.n_active; ++i) lv.old_index[i] = has_previous ? i : kNone;
-  finish_ghosts(lv, 0);
+  finish_boundary_cells(lv, 0);
 }
 
 template <int D>
-void Tree<D>::finish_ghosts(Level<D>& lv, int l) const {
+void Tree<D>::finish_boundary_cells(Level<D>& lv, int l) const {
   // Faces first, then edges, then corners: each is filled from one with fewer outside
-  // directions. Ghosts no active cell reads (the outer children of ghosts) have no source.
-  lv.ghost_fill.clear();
+  // directions. Boundary cells no active cell reads (the outer children of boundary cells)
+  // have no source.
+  lv.boundary_fill.clear();
   for (int outside = 1; outside <= D; ++outside) {
-    for (Index g = 0; g < lv.n_ghost; ++g) {
-      if (lv.ghost_source[g] == kNone) continue;
+    for (Index g = 0; g < lv.n_boundary; ++g) {
+      if (lv.boundary_source[g] == kNone) continue;
       int count = 0;
       for (int d = 0; d < D; ++d)
-        count += lv.ghost_coords[g][d] < 0 || lv.ghost_coords[g][d] >= extent(options_, d, l);
-      if (count == outside) lv.ghost_fill.push_back(lv.ghost_begin() + g);
+        count += lv.boundary_coords[g][d] < 0 || lv.boundary_coords[g][d] >= extent(options_, d, l);
+      if (count == outside) lv.boundary_fill.push_back(lv.boundary_begin() + g);
     }
-    if (outside == 1) lv.ghost_fill_faces = static_cast<Index>(lv.ghost_fill.size());
+    if (outside == 1) lv.boundary_fill_faces = static_cast<Index>(lv.boundary_fill.size());
   }
 }
 
@@ -235,7 +236,7 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
   const Index na = cur.n_active;
   const Index cur_base = cur.base;
 
-  // A. Mark the leaves and ghosts next to a parent.
+  // A. Mark the leaves and boundary cells next to a parent.
   cur.mark.assign(cur.size(), 0);
 #pragma omp parallel for schedule(static) if (na > kParallelMin)
   for (Index i = 0; i < na; ++i) {
@@ -250,17 +251,17 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
   }
 
   // B. Allocate level l+1.
-  std::int64_t parents = 0, halo_groups = 0, ghost_groups = 0;
+  std::int64_t parents = 0, halo_groups = 0, boundary_groups = 0;
   for (Index i = 0; i < na; ++i) {
     parents += !cur.leaf[i];
     halo_groups += cur.leaf[i] && cur.mark[i];
   }
-  for (Index g = cur.n_active + cur.n_halo; g < cur.size(); ++g) ghost_groups += cur.mark[g];
-  check_index_range(cur_base + cur.size() + (parents + halo_groups + ghost_groups) * C);
+  for (Index g = cur.n_active + cur.n_halo; g < cur.size(); ++g) boundary_groups += cur.mark[g];
+  check_index_range(cur_base + cur.size() + (parents + halo_groups + boundary_groups) * C);
   nx.base = cur_base + cur.size();
   nx.n_active = static_cast<Index>(parents * C);
   nx.n_halo = static_cast<Index>(halo_groups * C);
-  nx.n_ghost = static_cast<Index>(ghost_groups * C);
+  nx.n_boundary = static_cast<Index>(boundary_groups * C);
   nx.keys.resize(nx.n_active + nx.n_halo);
   nx.face.resize(static_cast<std::size_t>(nx.n_active) * kFaces<D>);
   nx.diag.resize(static_cast<std::size_t>(nx.n_active) * kDiagonals<D>);
@@ -270,12 +271,12 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
   nx.leaf.resize(nx.n_active);
   nx.old_index.resize(nx.n_active);
   nx.halo_parent.resize(halo_groups);
-  nx.ghost_source.assign(nx.n_ghost, kNone);
-  nx.ghost_side.resize(nx.n_ghost);
-  nx.ghost_coords.resize(nx.n_ghost);
+  nx.boundary_source.assign(nx.n_boundary, kNone);
+  nx.boundary_side.resize(nx.n_boundary);
+  nx.boundary_coords.resize(nx.n_boundary);
 
   Index next_active = nx.active_begin(), next_halo = nx.halo_begin(),
-        next_ghost = nx.ghost_begin();
+        next_boundary = nx.boundary_begin();
   for (Index i = 0; i < na; ++i) {
     Index& fc = cur.first_child[i];
     if (!cur.leaf[i]) {
@@ -293,37 +294,37 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
     }
   }
   for (Index i = na; i < na + cur.n_halo; ++i) cur.first_child[i] = kNone;
-  for (Index g = 0; g < cur.n_ghost; ++g) {
+  for (Index g = 0; g < cur.n_boundary; ++g) {
     Index& fc = cur.first_child[na + cur.n_halo + g];
     if (!cur.mark[na + cur.n_halo + g]) {
       fc = kNone;
       continue;
     }
-    fc = next_ghost;
-    const Index first = next_ghost - nx.ghost_begin();
+    fc = next_boundary;
+    const Index first = next_boundary - nx.boundary_begin();
     for (int b = 0; b < C; ++b) {
       Coords<D> c{};
-      for (int d = 0; d < D; ++d) c[d] = 2 * cur.ghost_coords[g][d] + child_bit(b, d);
-      nx.ghost_coords[first + b] = c;
-      nx.ghost_side[first + b] = ghost_side_of<D>(options_, c, l + 1);
+      for (int d = 0; d < D; ++d) c[d] = 2 * cur.boundary_coords[g][d] + child_bit(b, d);
+      nx.boundary_coords[first + b] = c;
+      nx.boundary_side[first + b] = boundary_side_of<D>(options_, c, l + 1);
     }
-    next_ghost += C;
+    next_boundary += C;
   }
 
   // C. Neighbour rows of every child, from the 4^D block around each parent.
-  const Index nx_base = nx.base, nx_ghost_begin = nx.ghost_begin();
-  const Index cur_ghost_begin = cur.ghost_begin();
+  const Index nx_base = nx.base, nx_boundary_begin = nx.boundary_begin();
+  const Index cur_boundary_begin = cur.boundary_begin();
   const bool has_old = l <= depth_ && !old.leaf.empty();
 #pragma omp parallel for schedule(static) if (na > kParallelMin / kChildren<D>)
   for (Index i = 0; i < na; ++i) {
     if (cur.leaf[i]) continue;
     const Index parent = cur_base + i;
     Index firsts[BlockTables<D>::kCodes];
-    bool touches_ghost = false;
+    bool touches_boundary = false;
     for (int code = 0; code < BlockTables<D>::kCodes; ++code) {
       const int s = T.slot_of_code[code];
       const Index n = s < 0 ? parent : cur.neighbor(parent, s);
-      touches_ghost |= n >= cur_ghost_begin;
+      touches_boundary |= n >= cur_boundary_begin;
       firsts[code] = cur.first_child[n - cur_base];
       CAPSFLOW_ASSERT(firsts[code] != kNone, "tree rebuild: a neighbour of a parent has no children to border its own");
     }
@@ -351,19 +352,19 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
       nx.keys[r] = child_key<D>(cur.keys[i], b);
       nx.old_index[r] = old_first == kNone ? kNone : old_first + b;
     }
-    if (!touches_ghost) continue;
-    // Ghost children in the block take their source one step inward, also in the block.
+    if (!touches_boundary) continue;
+    // Boundary children in the block take their source one step inward, also in the block.
     for (int q = 0; q < BlockTables<D>::kBlock; ++q) {
       const Index g = block[q];
-      if (g < nx_ghost_begin) continue;
-      const int side = nx.ghost_side[g - nx_ghost_begin];
+      if (g < nx_boundary_begin) continue;
+      const int side = nx.boundary_side[g - nx_boundary_begin];
       const int inward = (side & 1) ? -1 : 1;
       const Index src = block[q + inward * T.stride[side / 2]];
-      std::atomic_ref<Index>(nx.ghost_source[g - nx_ghost_begin])
+      std::atomic_ref<Index>(nx.boundary_source[g - nx_boundary_begin])
           .store(src, std::memory_order_relaxed);
     }
   }
-  finish_ghosts(nx, l + 1);
+  finish_boundary_cells(nx, l + 1);
 }
 
 template <int D>
@@ -388,7 +389,7 @@ void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
   }
   for (int k = l + 1; k <= options_.max_level; ++k) {
     next[k].base = next[l].base + next[l].size();
-    next[k].n_active = next[k].n_halo = next[k].n_ghost = 0;
+    next[k].n_active = next[k].n_halo = next[k].n_boundary = 0;
   }
   const Index cells = next[l].base + next[l].size();
   // Fields move to the new cells while both trees exist.
@@ -438,9 +439,10 @@ void Tree<D>::collect_halo_read() {
     lv.halo_read.clear();
     if (lv.n_halo == 0) continue;
     read.assign(lv.n_halo / C, 0);
-    // A ghost stands for its source (a face ghost's is a cell, an edge's a face ghost...).
+    // A boundary cell stands for its source (a face boundary cell's is a cell, an edge's a
+    // face boundary cell...).
     auto reads = [&](Index c) {
-      while (c >= lv.ghost_begin() && c < lv.ghost_end()) c = lv.ghost_source[c - lv.ghost_begin()];
+      while (c >= lv.boundary_begin() && c < lv.boundary_end()) c = lv.boundary_source[c - lv.boundary_begin()];
       if (c >= lv.halo_begin() && c < lv.halo_end()) read[(c - lv.halo_begin()) / C] = 1;
     };
     for (Index i = 0; i < lv.n_active; ++i) {
@@ -467,8 +469,8 @@ std::size_t Tree<D>::topology_bytes() const {
     bytes += lv.keys.size() * sizeof(Key) + lv.face.size() * sizeof(Index) + (lv.group_face.size() + lv.group_parent.size()) * sizeof(Index) +
              lv.diag.size() * sizeof(Index) + lv.first_child.size() * sizeof(Index) +
              lv.leaf.size() + (lv.halo_parent.size() + lv.halo_read.size()) * sizeof(Index) +
-             lv.ghost_source.size() * sizeof(Index) + lv.ghost_side.size() +
-             lv.ghost_coords.size() * sizeof(Coords<D>) + lv.ghost_fill.size() * sizeof(Index);
+             lv.boundary_source.size() * sizeof(Index) + lv.boundary_side.size() +
+             lv.boundary_coords.size() * sizeof(Coords<D>) + lv.boundary_fill.size() * sizeof(Index);
   }
   return bytes;
 }

@@ -41,8 +41,8 @@ std::string topology_violation(const Tree<D>& t) {
     if (lv.keys.size() != static_cast<std::size_t>(lv.n_active + lv.n_halo) ||
         lv.first_child.size() != static_cast<std::size_t>(lv.size()) ||
         lv.leaf.size() != static_cast<std::size_t>(lv.n_active))
-      return fmt::format("level {}: table sizes do not match its {} active, {} halo, {} ghost cells", l,
-                         lv.n_active, lv.n_halo, lv.n_ghost);
+      return fmt::format("level {}: table sizes do not match its {} active, {} halo, {} boundary cells", l,
+                         lv.n_active, lv.n_halo, lv.n_boundary);
     for (Index i = 0; i < lv.n_active; ++i) {
       const Index c = lv.base + i;
       const Key key = lv.keys[i];
@@ -71,12 +71,12 @@ std::string topology_violation(const Tree<D>& t) {
         bool outside = false;
         const Coords<D> want = offset_coords<D>(t, l, cc, kOffsets<D>[s], outside);
         const Index n = lv.neighbor(c, s);
-        if (n < lv.base || n >= lv.ghost_end())
+        if (n < lv.base || n >= lv.boundary_end())
           return fmt::format("level {}: neighbour slot {} of cell {} is {}, not a cell of the level", l, s, c, n);
-        if (outside != (n >= lv.ghost_begin()))
-          return fmt::format("level {}: neighbour slot {} of cell {} ({}) is {}a ghost, but its place is {} the brick",
+        if (outside != (n >= lv.boundary_begin()))
+          return fmt::format("level {}: neighbour slot {} of cell {} ({}) is {}a boundary cell, but its place is {} the brick",
                              l, s, c, fmt::join(cc, ", "), outside ? "not " : "", outside ? "outside" : "inside");
-        if (outside) continue;  // ghost coordinates: unwrapped beyond the wall, checked by the tests
+        if (outside) continue;  // boundary coordinates: unwrapped beyond the wall, checked by the tests
         const Coords<D>& got = coords[n - lv.base];
         if (got != want)
           return fmt::format("level {}: neighbour slot {} of cell {} ({}) is at ({}), not ({})", l, s, c,
@@ -101,7 +101,7 @@ std::string balance_violation(const Tree<D>& t) {
       const Index c = lv.base + i;
       for (int s = 0; s < kStencil<D>; ++s) {
         const Index n = lv.neighbor(c, s);
-        if (n >= lv.active_end() || lv.is_leaf(n)) continue;  // halo (one coarser), ghost, leaf
+        if (n >= lv.active_end() || lv.is_leaf(n)) continue;  // halo (one coarser), boundary cell, leaf
         // The children of n that touch c: bit d is 0 where n lies above c along d, 1 below.
         const Index fc = lv.first_child[n - lv.base];
         for (int b = 0; b < C; ++b) {

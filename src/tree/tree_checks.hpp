@@ -15,7 +15,7 @@ namespace capsflow::tree {
 // keys are its key's children, in order, and name it as their group's parent; a leaf's
 // children are halo cells naming it; every neighbour slot of an active cell holds the
 // cell of its own level at the slot's offset (decoded from keys, wrapped across periodic
-// sides, a ghost at those coordinates beyond a wall); the neighbour across face k of an
+// sides, a boundary cell at those coordinates beyond a wall); the neighbour across face k of an
 // active neighbour across face k^1 is the cell itself.
 template <int D>
 std::string topology_violation(const Tree<D>& t);

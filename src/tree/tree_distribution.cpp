@@ -2,7 +2,7 @@
 // ghost, placeholder), the owned sibling groups of every level, and the cells outside them
 // that the loops which skip the rest must still visit: the ghosts whose faces owned cells
 // read (face_ghosts_), the halo groups whose values reach owned cells (held_halo_) and the
-// wall ghosts filled from held values (held_ghost_fill_).
+// boundary cells filled from held values (held_boundary_fill_).
 #include <algorithm>
 #include <cstdint>
 #include <stdexcept>
@@ -22,8 +22,8 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
     owned_leaves_.clear();
     owned_groups_.clear();
     face_ghosts_.clear();
-    held_ghost_fill_.clear();
-    held_ghost_fill_faces_.clear();
+    held_boundary_fill_.clear();
+    held_boundary_fill_faces_.clear();
     global_depth_ = depth_;
     return;
   }
@@ -47,7 +47,7 @@ void Tree<D>::set_distribution(const Distribution* d, std::vector<std::uint8_t> 
   }
   collect_face_ghosts();
   collect_held_halos();  // after face_ghosts_: the face loops read their halos too
-  collect_held_wall_ghosts();
+  collect_held_boundary_fill();
   global_depth_ = static_cast<int>(d->max(static_cast<std::int64_t>(depth_)));
   // The halos owned cells read, and the owned leaves' levels (sync_leaf_neighbors): the
   // local tree's own halos next to its placeholders would otherwise make every rank restrict
@@ -143,32 +143,32 @@ void Tree<D>::collect_held_halos() {
 }
 
 template <int D>
-void Tree<D>::collect_held_wall_ghosts() {
+void Tree<D>::collect_held_boundary_fill() {
   constexpr int C = kChildren<D>;
-  held_ghost_fill_.assign(static_cast<std::size_t>(depth_) + 1, {});
-  held_ghost_fill_faces_.assign(static_cast<std::size_t>(depth_) + 1, 0);
+  held_boundary_fill_.assign(static_cast<std::size_t>(depth_) + 1, {});
+  held_boundary_fill_faces_.assign(static_cast<std::size_t>(depth_) + 1, 0);
   for (int l = 0; l <= depth_; ++l) {
     const Level<D>& lv = levels_[l];
-    std::vector<std::uint8_t> held_halo(static_cast<std::size_t>(lv.n_halo / C), 0), kept(static_cast<std::size_t>(lv.n_ghost), 0);
+    std::vector<std::uint8_t> held_halo(static_cast<std::size_t>(lv.n_halo / C), 0), kept(static_cast<std::size_t>(lv.n_boundary), 0);
     if (l > 0)
       for (const Index g : held_halo_[static_cast<std::size_t>(HaloCells::all)][static_cast<std::size_t>(l)])
         held_halo[static_cast<std::size_t>(g)] = 1;
-    auto& list = held_ghost_fill_[static_cast<std::size_t>(l)];
-    for (std::size_t i = 0; i < lv.ghost_fill.size(); ++i) {
-      if (i == static_cast<std::size_t>(lv.ghost_fill_faces))
-        held_ghost_fill_faces_[static_cast<std::size_t>(l)] = static_cast<Index>(list.size());
-      const Index g = lv.ghost_fill[i];
-      const Index source = lv.ghost_source[static_cast<std::size_t>(g - lv.ghost_begin())];
+    auto& list = held_boundary_fill_[static_cast<std::size_t>(l)];
+    for (std::size_t i = 0; i < lv.boundary_fill.size(); ++i) {
+      if (i == static_cast<std::size_t>(lv.boundary_fill_faces))
+        held_boundary_fill_faces_[static_cast<std::size_t>(l)] = static_cast<Index>(list.size());
+      const Index g = lv.boundary_fill[i];
+      const Index source = lv.boundary_source[static_cast<std::size_t>(g - lv.boundary_begin())];
       bool held = false;
       if (source < lv.halo_begin()) held = holds(source);  // an active cell
       else if (source < lv.halo_end()) held = held_halo[static_cast<std::size_t>((source - lv.halo_begin()) / C)] != 0;
-      else held = kept[static_cast<std::size_t>(source - lv.ghost_begin())] != 0;  // edges, corners: after their source
+      else held = kept[static_cast<std::size_t>(source - lv.boundary_begin())] != 0;  // edges, corners: after their source
       if (!held) continue;
-      kept[static_cast<std::size_t>(g - lv.ghost_begin())] = 1;
+      kept[static_cast<std::size_t>(g - lv.boundary_begin())] = 1;
       list.push_back(g);
     }
-    if (lv.ghost_fill_faces == static_cast<Index>(lv.ghost_fill.size()))
-      held_ghost_fill_faces_[static_cast<std::size_t>(l)] = static_cast<Index>(list.size());
+    if (lv.boundary_fill_faces == static_cast<Index>(lv.boundary_fill.size()))
+      held_boundary_fill_faces_[static_cast<std::size_t>(l)] = static_cast<Index>(list.size());
   }
 }
 
@@ -210,11 +210,11 @@ void Tree<D>::collect_face_ghosts() {
 
 template void Tree<2>::set_distribution(const Distribution*, std::vector<std::uint8_t>, DistributedAdaptation<2>*);
 template void Tree<2>::collect_held_halos();
-template void Tree<2>::collect_held_wall_ghosts();
+template void Tree<2>::collect_held_boundary_fill();
 template void Tree<2>::collect_face_ghosts();
 template void Tree<3>::set_distribution(const Distribution*, std::vector<std::uint8_t>, DistributedAdaptation<3>*);
 template void Tree<3>::collect_held_halos();
-template void Tree<3>::collect_held_wall_ghosts();
+template void Tree<3>::collect_held_boundary_fill();
 template void Tree<3>::collect_face_ghosts();
 
 }  // namespace capsflow::tree

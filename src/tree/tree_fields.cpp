@@ -1,4 +1,4 @@
-// Field values outside the leaves (restriction, halo, ghosts) and the transfer of fields
+// Field values outside the leaves (restriction, halo, boundary cells) and the transfer of fields
 // to a new tree. One mechanism serves every solver: see the rules in prolongation.hpp
 // (levels) and boundary.hpp (sides).
 #include <algorithm>
@@ -145,25 +145,25 @@ void Tree<D>::prolong_level(int l, std::span<double> v, Prolongation p) const {
 }
 
 template <int D>
-void Tree<D>::poison_dropped_wall_ghosts(int l, std::span<double> v) const {
+void Tree<D>::poison_dropped_boundary_cells(int l, std::span<double> v) const {
   const Level<D>& lv = levels_[l];
-  std::vector<std::uint8_t> kept(static_cast<std::size_t>(lv.n_ghost), 0);
-  for (const Index g : held_ghost_fill_[static_cast<std::size_t>(l)]) kept[static_cast<std::size_t>(g - lv.ghost_begin())] = 1;
-  for (const Index g : lv.ghost_fill)
-    if (!kept[static_cast<std::size_t>(g - lv.ghost_begin())]) v[static_cast<std::size_t>(g)] = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::uint8_t> kept(static_cast<std::size_t>(lv.n_boundary), 0);
+  for (const Index g : held_boundary_fill_[static_cast<std::size_t>(l)]) kept[static_cast<std::size_t>(g - lv.boundary_begin())] = 1;
+  for (const Index g : lv.boundary_fill)
+    if (!kept[static_cast<std::size_t>(g - lv.boundary_begin())]) v[static_cast<std::size_t>(g)] = std::numeric_limits<double>::quiet_NaN();
 }
 
 template <int D>
-void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D>& bc) const {
-  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_ghosts: the field does not have num_cells entries");
+void Tree<D>::fill_boundary_cells(int l, std::span<double> v, const BoundaryConditions<D>& bc) const {
+  CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_boundary_cells: the field does not have num_cells entries");
   const Level<D>& lv = levels_[l];
   if constexpr (kAssertions)
-    if (dist_) poison_dropped_wall_ghosts(l, v);
-  // N ranks: the wall ghosts whose source holds a real value (collect_held_wall_ghosts).
-  const std::vector<Index>& ghost_fill = dist_ ? held_ghost_fill_[static_cast<std::size_t>(l)] : lv.ghost_fill;
-  const Index ghost_fill_faces = dist_ ? held_ghost_fill_faces_[static_cast<std::size_t>(l)] : lv.ghost_fill_faces;
+    if (dist_) poison_dropped_boundary_cells(l, v);
+  // N ranks: the boundary cells whose source holds a real value (collect_held_boundary_fill).
+  const std::vector<Index>& boundary_fill = dist_ ? held_boundary_fill_[static_cast<std::size_t>(l)] : lv.boundary_fill;
+  const Index boundary_fill_faces = dist_ ? held_boundary_fill_faces_[static_cast<std::size_t>(l)] : lv.boundary_fill_faces;
   const double h = cell_size_[l];
-  const Index g0 = lv.ghost_begin();
+  const Index g0 = lv.boundary_begin();
   bool constant = true;
   for (const auto& sc : bc.side) constant = constant && !sc.function;
   if (constant) {  // the common case (every multigrid correction): no point evaluation
@@ -175,30 +175,30 @@ void Tree<D>::fill_ghosts(int l, std::span<double> v, const BoundaryConditions<D
     }
     auto fill = [&](Index g) {
       const Index local = g - g0;
-      const int side = lv.ghost_side[local];
-      v[g] = add[side] + mul[side] * v[lv.ghost_source[local]];
+      const int side = lv.boundary_side[local];
+      v[g] = add[side] + mul[side] * v[lv.boundary_source[local]];
     };
-    // Face ghosts read active or halo cells only, so they go in parallel (a refined wall
-    // has many; the multigrid refills them after every sweep). Edges and corners read
-    // face ghosts: after them, in order.
-    const Index faces = ghost_fill_faces, all = static_cast<Index>(ghost_fill.size());
+    // Boundary cells across a face read active or halo cells only, so they go in parallel (a
+    // refined wall has many; the multigrid refills them after every sweep). Edges and corners
+    // read those across a face: after them, in order.
+    const Index faces = boundary_fill_faces, all = static_cast<Index>(boundary_fill.size());
 #pragma omp parallel for schedule(static) if (faces > kParallelMin)
-    for (Index i = 0; i < faces; ++i) fill(ghost_fill[i]);
-    for (Index i = faces; i < all; ++i) fill(ghost_fill[i]);
+    for (Index i = 0; i < faces; ++i) fill(boundary_fill[i]);
+    for (Index i = faces; i < all; ++i) fill(boundary_fill[i]);
     return;
   }
-  for (const Index g : ghost_fill) {
+  for (const Index g : boundary_fill) {
     const Index local = g - g0;
-    const int side = lv.ghost_side[local];
+    const int side = lv.boundary_side[local];
     const SideCondition<D>& sc = bc.side[side];
     double value = sc.value;
     if (sc.function) {
-      // The boundary point between the ghost and its source.
-      Point<D> x = center_at(l, lv.ghost_coords[local]);
+      // The boundary point between the boundary cell and its source.
+      Point<D> x = center_at(l, lv.boundary_coords[local]);
       x[side / 2] += (side & 1) ? -0.5 * h : 0.5 * h;
       value = sc.function(x);
     }
-    const double inner = v[lv.ghost_source[local]];
+    const double inner = v[lv.boundary_source[local]];
     v[g] = sc.kind == BcKind::dirichlet ? 2.0 * value - inner : inner + h * value;
   }
 }
@@ -268,7 +268,7 @@ void Tree<D>::fill_outside_leaves(std::span<double> v, const BoundaryConditions<
   if (p == Prolongation::none) p = Prolongation::linear;
   for (int l = 0; l <= depth_; ++l) {
     fill_halo(l, v, p);
-    fill_ghosts(l, v, bc);
+    fill_boundary_cells(l, v, bc);
   }
 }
 
@@ -295,7 +295,7 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
   }
   for (int l = 0; l <= depth_; ++l) {
     fill_halo(l, v, p, HaloCells::face_read);
-    fill_ghosts(l, v, bc);
+    fill_boundary_cells(l, v, bc);
   }
 }
 
@@ -369,9 +369,9 @@ template FieldId Tree<2>::add_field(FieldSpec<2>);
 template void Tree<2>::restrict_level(int, std::span<double>) const;
 template void Tree<2>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
 template void Tree<2>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
-template void Tree<2>::poison_dropped_wall_ghosts(int, std::span<double>) const;
+template void Tree<2>::poison_dropped_boundary_cells(int, std::span<double>) const;
 template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const;
-template void Tree<2>::fill_ghosts(int, std::span<double>, const BoundaryConditions<2>&) const;
+template void Tree<2>::fill_boundary_cells(int, std::span<double>, const BoundaryConditions<2>&) const;
 template void Tree<2>::sync(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
 template void Tree<2>::sync(FieldId);
 template void Tree<2>::fill_outside_leaves(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
@@ -387,9 +387,9 @@ template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
 template void Tree<3>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
 template void Tree<3>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
-template void Tree<3>::poison_dropped_wall_ghosts(int, std::span<double>) const;
+template void Tree<3>::poison_dropped_boundary_cells(int, std::span<double>) const;
 template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const;
-template void Tree<3>::fill_ghosts(int, std::span<double>, const BoundaryConditions<3>&) const;
+template void Tree<3>::fill_boundary_cells(int, std::span<double>, const BoundaryConditions<3>&) const;
 template void Tree<3>::sync(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
 template void Tree<3>::sync(FieldId);
 template void Tree<3>::fill_outside_leaves(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;

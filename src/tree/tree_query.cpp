@@ -21,7 +21,7 @@ Coords<D> Tree<D>::coords(Index c) const {
   const Level<D>& lv = levels_[level_of(c)];
   const Index local = c - lv.base;
   if (local < lv.n_active + lv.n_halo) return morton_decode<D>(lv.keys[local]);
-  return lv.ghost_coords[local - lv.n_active - lv.n_halo];
+  return lv.boundary_coords[local - lv.n_active - lv.n_halo];
 }
 
 template <int D>

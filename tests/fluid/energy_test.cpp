@@ -58,7 +58,7 @@ TEST(FlowEnergy, KineticEnergyAndDissipationAreSecondOrder) {
 }
 
 // Plane Couette between a wall (y = 0) and a wall moving at U (y = 1), periodic in x: u = U y,
-// so Phi = mu U^2 and the moving wall's work P_b = mu U^2, exactly (the ghosts are exact for a
+// so Phi = mu U^2 and the moving wall's work P_b = mu U^2, exactly (the boundary cells are exact for a
 // linear field).
 TEST(FlowEnergy, MovingWallWorkEqualsCouetteDissipation) {
   Tree<2> t({.roots = {1, 1}, .periodic = {true, false}, .max_level = 5});

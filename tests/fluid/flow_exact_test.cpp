@@ -216,7 +216,7 @@ namespace capsflow::fluid {
 namespace {
 
 // Plane Poiseuille flow driven by a uniform force G between walls y = 0 and y = 1 (periodic
-// in x): u = G Re y (1 - y) / 2. The cell-centred wall ghost is second order for this
+// in x): u = G Re y (1 - y) / 2. The cell-centred boundary cell is second order for this
 // quadratic profile (not exact, unlike Couette), so the steady error falls as h^2, the
 // same with and without advection ((u.grad)u = 0 here).
 double poiseuille_error(int level, bool stokes) {

@@ -133,7 +133,7 @@ Tree<2> channel(int level) {
 }
 
 // With the interface on a face, the harmonic face mean makes every discrete flux equal to
-// tau (the wall ghosts are exact for a linear profile): the exact profile is a steady state
+// tau (the boundary cells are exact for a linear profile): the exact profile is a steady state
 // of the scheme. Started there it stays, in Stokes and Navier-Stokes mode (1e-12: the
 // solvers start at a zero residual; what remains is rounding); started from rest it is
 // reached by backward Euler with dt = 10 in 20 steps (slowest mode damped by > 1e-14; 1e-10
@@ -167,7 +167,7 @@ TEST(FlowProperties, TwoLayerCouetteExactWithTheInterfaceOnAFace) {
 }
 
 // Two-layer Poiseuille: walls at rest, a uniform force G along x. u is piecewise quadratic;
-// the cell-centred wall ghost and the harmonic mean across the interface face are exact
+// the cell-centred boundary cell and the harmonic mean across the interface face are exact
 // only for linear profiles, so the steady error falls as h^2 (a flux error O(h^2) at the
 // walls and O(h) at the single interface face, each moving the profile by O(h^2)).
 double two_layer_poiseuille_error(int level, double y0 = 0.5) {
@@ -233,7 +233,7 @@ TEST(FlowProperties, StratifiedFluidAtRestUnderGravity) {
     ns.set_face_force([&](const Tree<2>& tr, FaceField<2>& f) {
       const std::span<const double> r = ns.density();  // this step's values
       for_each_face<2>(tr, [&](int d, Index lo, Index hi, double, const tree::Level<2>& lv) {
-        const bool wall = std::max(lo, hi) >= lv.ghost_begin();  // the solver zeroes it
+        const bool wall = std::max(lo, hi) >= lv.boundary_begin();  // the solver zeroes it
         f[d][hi] = d == 1 && !wall ? 0.5 * (r[lo] + r[hi]) * gravity : 0.0;
       });
     });

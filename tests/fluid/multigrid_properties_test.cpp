@@ -106,7 +106,7 @@ void check_conservation(bool periodic) {
     const tree::Level<D>& lv = t.level(l);
     for (int k = 0; k < 2 * D; ++k) {
       const auto n = lv.face_row(c)[k];
-      if (n >= lv.ghost_begin()) wall += 2.0 * (a[n] - a[c]) / h * std::pow(h, D - 1);
+      if (n >= lv.boundary_begin()) wall += 2.0 * (a[n] - a[c]) / h * std::pow(h, D - 1);
     }
   }
   if (periodic) {
@@ -139,10 +139,10 @@ TEST(MultigridOptions, JacobiSmootherConverges) {
 // is a fixed computation, as are the residual and transfers: the solution must be bitwise
 // the same on 1 and on 2 threads (a race would show as differing bits).
 TEST(MultigridOptions, SolutionIndependentOfThreadCount) {
-  // Both threads relax the finest level and fill the coarser level's wall ghosts.
+  // Both threads relax the finest level and fill the coarser level's boundary cells.
   Tree<3> t = testing::nested_ball_tree<3>(6, {{0.3, 0}}, 1);
   ASSERT_GT(t.level(6).n_active, kRelaxParallelMin);
-  ASSERT_GT(t.level(5).ghost_fill_faces, tree::kParallelMin);
+  ASSERT_GT(t.level(5).boundary_fill_faces, tree::kParallelMin);
   BoundaryConditions<3> bc = BoundaryConditions<3>::all(BcKind::dirichlet);
   bc.side[1].kind = bc.side[4].kind = BcKind::neumann;  // walls of both kinds
   EllipticOperator<3> op(t, {1.0}, {}, bc);

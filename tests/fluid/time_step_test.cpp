@@ -14,7 +14,7 @@ namespace capsflow::fluid {
 namespace {
 
 struct Recorder final : StepBody {
-  Recorder(std::string name, std::vector<std::string>& log) : name(std::move(name)), log(log) {}
+  Recorder(std::string n, std::vector<std::string>& l) : name(std::move(n)), log(l) {}
   void forces() override { log.push_back(name + ".forces"); }
   void spreading() override { log.push_back(name + ".spreading"); }
   void flow_failed() override { log.push_back(name + ".flow_failed"); }

@@ -1,4 +1,4 @@
-// Transfer between levels: exactness for linear fields, conservation, boundary ghosts.
+// Transfer between levels: exactness for linear fields, conservation, boundary cells.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -100,13 +100,13 @@ void check_linear_sync(TreeOptions<D> opt, unsigned seed, BcKind kind) {
     const Level<D>& lv = t.level(l);
     for (Index c = lv.active_begin(); c < lv.halo_end(); ++c, ++checked)
       worst = std::max(worst, std::abs(v[c] - linear<D>(t.center(c))));
-    for (const Index g : lv.ghost_fill) {
+    for (const Index g : lv.boundary_fill) {
       ++checked;
-      worst = std::max(worst, std::abs(v[g] - linear<D>(t.center_at(l, lv.ghost_coords[g - lv.ghost_begin()]))));
+      worst = std::max(worst, std::abs(v[g] - linear<D>(t.center_at(l, lv.boundary_coords[g - lv.boundary_begin()]))));
     }
   }
   EXPECT_GT(checked, t.num_leaves());
-  EXPECT_LT(worst, 1e-12) << "restriction, halo prolongation and ghosts must be exact for linear fields";
+  EXPECT_LT(worst, 1e-12) << "restriction, halo prolongation and boundary cells must be exact for linear fields";
 }
 
 TEST(TreeFields, LinearFieldExactEverywhere2DDirichlet) {
@@ -129,18 +129,18 @@ double quadratic3(const Point<3>& x) {
 }
 
 // Quadratic halo prolongation is exact for quadratic fields (away from walls, where the
-// Dirichlet ghosts are only second order, so use a periodic-free interior check).
+// Dirichlet boundary cells are only second order, so use a periodic-free interior check).
 TEST(TreeFields, QuadraticHaloExactForQuadratics) {
   TreeOptions<3> opt{.roots = {2, 2, 2}, .origin = {-1, -1, -1}, .max_level = 4};
   Tree<3> t = random_tree<3>(opt, 51, 5);
   std::vector<double> v(t.num_cells(), 0.0);
   // Set every active cell (not only leaves: restriction of a quadratic is not its centre
-  // value) and every ghost exactly, then fill the halos.
+  // value) and every boundary cell exactly, then fill the halos.
   for (int l = 0; l <= t.depth(); ++l) {
     const Level<3>& lv = t.level(l);
     for (Index c = lv.active_begin(); c < lv.active_end(); ++c) v[c] = quadratic3(t.center(c));
-    for (Index g = lv.ghost_begin(); g < lv.ghost_end(); ++g)
-      v[g] = quadratic3(t.center_at(l, lv.ghost_coords[g - lv.ghost_begin()]));
+    for (Index g = lv.boundary_begin(); g < lv.boundary_end(); ++g)
+      v[g] = quadratic3(t.center_at(l, lv.boundary_coords[g - lv.boundary_begin()]));
   }
   Index halos = 0;
   for (int l = 1; l <= t.depth(); ++l) {
@@ -152,7 +152,7 @@ TEST(TreeFields, QuadraticHaloExactForQuadratics) {
   EXPECT_GT(halos, 100);
 }
 
-// sync_leaf_neighbors fills only Level::halo_read: every halo or ghost value a face
+// sync_leaf_neighbors fills only Level::halo_read: every halo or boundary value a face
 // stencil of an active cell reads must still equal the full sync's, with every value the
 // fill is not meant to produce poisoned (NaN propagates through any read of a stale cell).
 template <int D>
@@ -169,9 +169,9 @@ void check_face_read_halo(TreeOptions<D> opt, unsigned seed, Prolongation p) {
   for (int l = 0; l <= t.depth(); ++l) {
     const Level<D>& lv = t.level(l);
     for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
-      // Leaves read halo and ghost neighbours (the residual); parents, halo neighbours
-      // (the multigrid's relaxation; their ghosts it fills itself).
-      const Index end = lv.is_leaf(c) ? lv.ghost_end() : lv.halo_end();
+      // Leaves read halo and boundary neighbours (the residual); parents, halo neighbours
+      // (the multigrid's relaxation; their boundary cells it fills itself).
+      const Index end = lv.is_leaf(c) ? lv.boundary_end() : lv.halo_end();
       const Index* row = lv.face_row(c);
       for (int k = 0; k < 2 * D; ++k) {
         if (row[k] < lv.halo_begin() || row[k] >= end) continue;
@@ -261,9 +261,9 @@ TEST(TreeFields, PeriodicHaloWraps) {
   Tree<2> t = random_tree<2>(opt, 41, 5);
   std::vector<double> v(t.num_cells(), 0.0);
   for (const Index c : t.leaves()) v[c] = 3.0;
-  t.sync(v, BoundaryConditions<2>::all(BcKind::dirichlet, 99.0));  // no ghosts: unused
+  t.sync(v, BoundaryConditions<2>::all(BcKind::dirichlet, 99.0));  // no boundary cells: unused
   for (int l = 0; l <= t.depth(); ++l) {
-    EXPECT_EQ(t.level(l).n_ghost, 0);
+    EXPECT_EQ(t.level(l).n_boundary, 0);
     for (Index c = t.level(l).active_begin(); c < t.level(l).halo_end(); ++c) ASSERT_DOUBLE_EQ(v[c], 3.0);
   }
 }

@@ -85,19 +85,19 @@ void check_invariants(const Tree<D>& t) {
         const Coords<D> nc = neighbour_coords<D>(t, l, cc, kOffsets<D>[s], outside);
         const Index n = lv.neighbor(c, s);
         if (outside) {
-          // 3. Ghosts sit where the offset says, and take their value from one cell inward.
-          ASSERT_GE(n, lv.ghost_begin());
-          ASSERT_LT(n, lv.ghost_end());
-          const Index g = n - lv.ghost_begin();
+          // 3. Boundary cells sit where the offset says, and take their value from one cell inward.
+          ASSERT_GE(n, lv.boundary_begin());
+          ASSERT_LT(n, lv.boundary_end());
+          const Index g = n - lv.boundary_begin();
           Coords<D> expect = cc;
           for (int d = 0; d < D; ++d) expect[d] += kOffsets<D>[s][d];
           for (int d = 0; d < D; ++d)
             if (opt.periodic[d]) expect[d] = nc[d];
-          ASSERT_EQ(lv.ghost_coords[g], expect);
-          const int side = lv.ghost_side[g];
+          ASSERT_EQ(lv.boundary_coords[g], expect);
+          const int side = lv.boundary_side[g];
           Coords<D> src = expect;
           src[side / 2] += (side & 1) ? -1 : 1;
-          ASSERT_EQ(t.coords(lv.ghost_source[g]), src);
+          ASSERT_EQ(t.coords(lv.boundary_source[g]), src);
           continue;
         }
         // 4. Every neighbour exists at the same level, and is the cell at those coordinates.

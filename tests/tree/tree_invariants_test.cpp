@@ -18,16 +18,16 @@ using testing::check_invariants;
 template <int D>
 struct Snapshot {
   std::vector<std::vector<Key>> keys;
-  std::vector<std::array<Index, 3>> counts;  // active, halo, ghost per level
+  std::vector<std::array<Index, 3>> counts;  // active, halo, boundary per level
   std::vector<std::vector<double>> values;
 
   explicit Snapshot(Tree<D>& t) {
     for (int l = 0; l <= t.depth(); ++l) {
       keys.push_back(t.level(l).keys);
-      counts.push_back({t.level(l).n_active, t.level(l).n_halo, t.level(l).n_ghost});
+      counts.push_back({t.level(l).n_active, t.level(l).n_halo, t.level(l).n_boundary});
     }
     for (FieldId f = 0; f < t.num_fields(); ++f) {
-      t.sync(f);  // parents, halos and ghosts as an adapt leaves them
+      t.sync(f);  // parents, halos and boundary cells as an adapt leaves them
       values.emplace_back(t.values(f).begin(), t.values(f).end());
     }
   }

@@ -90,7 +90,7 @@ void face_coefficients(const tree::Tree<D>& t, std::span<const double> cells, Fa
       for (int k = 0; k < F; ++k) {
         Index n = row[k];
         // A parent neighbour's face is set by the fix-up below: its own value is not read.
-        if (n >= lv.ghost_begin() || (n < lv.active_end() && !lv.is_leaf(n)))
+        if (n >= lv.boundary_begin() || (n < lv.active_end() && !lv.is_leaf(n)))
           n = c;
         else if (n >= lv.halo_begin())
           n = lv.halo_parent[(n - lv.halo_begin()) / C];

@@ -63,7 +63,7 @@ double face_mean(FaceMean mean, double a, double b);
 
 // The same from cell values (read on the leaves only): a leaf's face takes the mean of the
 // leaf and its same-level neighbour, where a halo neighbour (the coarse side of a jump)
-// stands for its coarse leaf and a ghost (the domain boundary) for the leaf itself (zero
+// stands for its coarse leaf and a boundary cell (the domain boundary) for the leaf itself (zero
 // normal gradient of the property); then parents and the leaf-facing-parent fix-up as
 // above.
 template <int D>

@@ -4,7 +4,7 @@
 // On a leaf c of size h with face neighbours n_k:
 //   L(a)_c = sum_k F_k / h + lambda_c a_c,   F_k = alpha_k (a_{n_k} - a_c) / h
 // where F_k is the flux per unit area out of c through face k. Neighbours are same-level
-// cells (halo cells across a jump to a coarser region, ghosts across a wall), except when
+// cells (halo cells across a jump to a coarser region, boundary cells across a wall), except when
 // the neighbour is a parent: then F_k is the mean of the 2^(D-1) fine fluxes through that
 // face, each computed by the fine leaf against c's halo child. What leaves one side enters
 // the other, so sum_c h^D L(a)_c telescopes to the boundary fluxes exactly (conservation).
@@ -115,7 +115,7 @@ class EllipticOperator {
   }
 
   // `sweeps` smoothing sweeps of L(da) = res on the active cells of level l. The halo of
-  // level l must hold the coarse correction; ghosts are refilled here. With `corrected`
+  // level l must hold the coarse correction; boundary cells are refilled here. With `corrected`
   // not empty, its leaves of level l get += da once da is final there: fused into the last
   // pass, which saves a pass over the finest level per cycle.
   void relax(int l, std::span<double> da, std::span<const double> res, int sweeps,
@@ -130,8 +130,8 @@ class EllipticOperator {
     for (int s = 0; s < sweeps; ++s) {
       const bool last = s + 1 == sweeps;
       if (opt.smoother == Smoother::red_black) {
-        // No ghost refill between the colours: a face ghost's source is the cell it
-        // touches, so black cells never read the ghost of a red one.
+        // No boundary refill between the colours: a boundary cell's source across a face is
+        // the cell it touches, so black cells never read the boundary cell of a red one.
         // Distributed: each colour reads only the other one, so an exchange after each
         // gives every rank the numbers of one rank (a replicated level: every rank relaxes
         // every cell, with no exchange). A half-sweep changes its colour only: the ghosts
@@ -153,7 +153,7 @@ class EllipticOperator {
         }
         if (!tree_.replicated_level(l)) tree_.exchange_level(l, da);
       }
-      tree_.fill_ghosts(l, da, correction_bc_);
+      tree_.fill_boundary_cells(l, da, correction_bc_);
     }
     if (!corrected.empty() && !fuse)
       for (Index i = 0; i < lv.n_active; ++i)

@@ -135,7 +135,7 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
       t.prolong_level(l, da, tree::Prolongation::linear);
       t.fill_halo(l, da, tree::Prolongation::linear, tree::Tree<Op::kDimension>::HaloCells::face_read);
     }
-    t.fill_ghosts(l, da, op.correction_bc());
+    t.fill_boundary_cells(l, da, op.correction_bc());
     op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch, corrected);
   }
 }
@@ -196,7 +196,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       if (stats.cycles > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
       t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });
       t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic);
-      op.apply_leaves(p, q);  // L0 p: p's ghosts hold homogeneous values
+      op.apply_leaves(p, q);  // L0 p: p's boundary cells hold homogeneous values
       pq_old = detail::leaf_dot<D>(t, p, q);
       const double step = detail::leaf_dot<D>(t, p, res) / pq_old;
       t.for_each_leaf([&](tree::Index c) { a[c] += step * p[c]; });
