@@ -41,13 +41,19 @@ struct Box {
   NavierStokes<2> ns{tree, flow()};
 };
 
-TEST(TimeStep, EachStageRunsForEveryBodyInOrderAroundTheFlowStep) {
+// Two recording bodies attached to one step, a then b.
+struct TwoBodies : ::testing::Test {
+  TwoBodies() {
+    step.attach(a);
+    step.attach(b);
+  }
   Box box;
   std::vector<std::string> log;
-  Recorder a("a", log), b("b", log);
-  TimeStep<2> step(box.ns);
-  step.attach(a);
-  step.attach(b);
+  Recorder a{"a", log}, b{"b", log};
+  TimeStep<2> step{box.ns};
+};
+
+TEST_F(TwoBodies, EachStageRunsForEveryBodyInOrderAroundTheFlowStep) {
   // The flow step reads its face force between spreading and interpolation.
   box.ns.set_face_force([&](const tree::Tree<2>&, FaceField<2>&) { log.push_back("flow"); });
   const StepStats st = step.run();
@@ -61,13 +67,7 @@ TEST(TimeStep, EachStageRunsForEveryBodyInOrderAroundTheFlowStep) {
   EXPECT_GE(a.flow_seconds, 0.0);
 }
 
-TEST(TimeStep, AFailedFlowStepTellsEveryBodyAndStopsTheStep) {
-  Box box;
-  std::vector<std::string> log;
-  Recorder a("a", log), b("b", log);
-  TimeStep<2> step(box.ns);
-  step.attach(a);
-  step.attach(b);
+TEST_F(TwoBodies, AFailedFlowStepTellsEveryBodyAndStopsTheStep) {
   box.ns.set_face_force([](const tree::Tree<2>&, FaceField<2>&) { throw std::runtime_error("the flow failed"); });
   EXPECT_THROW((void)step.run(), std::runtime_error);
   const std::vector<std::string> expected{"a.forces", "b.forces", "a.spreading", "b.spreading", "a.flow_failed",
