@@ -393,7 +393,8 @@ void CapsuleCoupling::place_midpoints() {
   }
 }
 
-void CapsuleCoupling::find_boxes(std::size_t count, const std::function<Eigen::Matrix3Xd(std::size_t)>& x_of,
+void CapsuleCoupling::find_boxes(std::size_t count,
+                                 const std::function<Eigen::Ref<const Eigen::Matrix3Xd>(std::size_t)>& x_of,
                                  const std::function<const KernelChoice&(std::size_t)>& kernels_of,
                                  const OwnedPositions& own) {
   const auto t0 = Clock::now();
@@ -446,7 +447,8 @@ void CapsuleCoupling::spreading() {
     distributed_spreading(step);
     return;
   }
-  find_boxes(capsules_.size(), [this](std::size_t k) { return stage_positions(capsule(static_cast<int>(k))); },
+  find_boxes(capsules_.size(),
+             [this](std::size_t k) -> Eigen::Ref<const Eigen::Matrix3Xd> { return stage_positions(capsule(static_cast<int>(k))); },
              [this](std::size_t k) -> const KernelChoice& { return kernels_[k]; }, {});
   spread_forces(step);
   if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);  // J(X*) u^n, before the flow changes u

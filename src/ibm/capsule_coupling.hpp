@@ -87,7 +87,7 @@ struct Capsule {
   KernelChoice kernels{};
   Eigen::Matrix3Xd forces;    // F(X(t)) of the last step
   Eigen::Matrix3Xd velocity;  // V of the last step (V^(n-1) of the next one's AB2)
-  Eigen::Matrix3Xd previous_velocity;  // V of the step before (scratch of move_nodes)
+  Eigen::Matrix3Xd previous_velocity;  // V of the step before (scratch of advance_nodes)
   Eigen::Matrix3Xd x_mid;              // midpoint scheme: X*, where forces and velocities are taken
   Eigen::Matrix3Xd start_velocity;     // midpoint scheme: J(X*) u^n
   Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (may_wait)
@@ -254,13 +254,12 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
  private:
   void compute_forces(int step);
   void spread_forces(int step);
-  void move_nodes(int step, double dt, double previous_dt);
   // The midpoint scheme's X* (place_midpoints) and J(X*) u^n, before the flow step.
   void place_midpoints();
   void predict_midpoint(int step);
   // boxes_[i] for the nodes at `x_of(i)` of each of `count` staggered capsules or ranges
   // (kernels_of(i) their kernels); timed as spreading.
-  void find_boxes(std::size_t count, const std::function<Eigen::Matrix3Xd(std::size_t)>& x_of,
+  void find_boxes(std::size_t count, const std::function<Eigen::Ref<const Eigen::Matrix3Xd>(std::size_t)>& x_of,
                   const std::function<const KernelChoice&(std::size_t)>& kernels_of, const OwnedPositions& own);
   [[nodiscard]] const NodeBoxes* boxes(std::size_t i) const {
     return i < boxes_.size() && boxes_[i].nodes() > 0 ? &boxes_[i] : nullptr;

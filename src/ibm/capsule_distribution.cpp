@@ -207,7 +207,7 @@ void CapsuleCoupling::distributed_spreading(int step) {
                                                            static_cast<std::int64_t>(routed_.ranges.size()));
   traffic_.most_nodes_received = std::max<std::int64_t>(traffic_.most_nodes_received, routed_.x.cols());
   collectively([&] {
-    find_boxes(routed_.ranges.size(), [this](std::size_t r) -> Eigen::Matrix3Xd {
+    find_boxes(routed_.ranges.size(), [this](std::size_t r) -> Eigen::Ref<const Eigen::Matrix3Xd> {
       const RoutedNodes::Range& range = routed_.ranges[r];
       return routed_.x.middleCols(range.begin, range.end - range.begin);
     }, [this](std::size_t r) -> const KernelChoice& { return kernels_[static_cast<std::size_t>(routed_.ranges[r].capsule)]; },

@@ -6,7 +6,7 @@
 
 namespace capsflow::ibm {
 
-void NodeBoxes::find(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, std::span<const KernelKind> kinds,
+void NodeBoxes::find(const tree::Tree<3>& t, Eigen::Ref<const Eigen::Matrix3Xd> x, std::span<const KernelKind> kinds,
                      bool divergence_free, const OwnedPositions& own) {
   const Eigen::Index n = x.cols();
   const int level = t.max_level();
@@ -29,7 +29,7 @@ void NodeBoxes::find(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, std::spa
     for (const KernelKind kind : kinds)
       with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) {
         for (int axis = 0; axis < 3; ++axis) {
-          const BoxStencil st = face_stencil_bounds<K>(o, h, &x(0, i), axis);
+          const BoxStencil st = face_stencil_bounds<K>(o, h, x.col(i).data(), axis);
           for (int d = 0; d < 3; ++d) {
             lo[d] = std::min(lo[d], st.first[d]);
             hi[d] = std::max(hi[d], st.first[d] + st.n[d]);

@@ -25,7 +25,7 @@ class NodeBoxes {
   // (divergence-free or not), on the tree's max level; cells of positions outside `own`
   // are kNone. Valid while the tree and x stay as they are (checked builds compare every
   // stencil's cells with the tree's keys).
-  void find(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, std::span<const KernelKind> kinds,
+  void find(const tree::Tree<3>& t, Eigen::Ref<const Eigen::Matrix3Xd> x, std::span<const KernelKind> kinds,
             bool divergence_free, const OwnedPositions& own = {});
   // Fills cells[slot] for the stencil st of node i (slot order of BoxStencil) from its box;
   // false when the box is incomplete (then cells is untouched).

@@ -27,11 +27,11 @@ void check_names(std::span<const std::string> names, std::string_view kind) {
   }
 }
 
-// The communicator of a distributed tree (MPI_COMM_NULL on one rank).
+// The ranks of a distributed tree (nullptr on one rank).
 template <int D>
-MPI_Comm comm_of(const tree::Tree<D>& tree) {
+const parallel::Comm* ranks_of(const tree::Tree<D>& tree) {
   const auto* forest = dynamic_cast<const tree::DistributedForest<D>*>(tree.distribution());
-  return forest && forest->comm().distributed() ? forest->comm().handle() : MPI_COMM_NULL;
+  return forest && forest->comm().distributed() ? &forest->comm() : nullptr;
 }
 
 // Rank 0's extras on every rank: names and shapes (every rank creates every dataset); the
@@ -80,9 +80,9 @@ template <int D>
 void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tree,
                       const CheckpointScalars& scalars, std::span<const ExtraArray> root_extras,
                       std::span<const LeafArray> leaf_arrays) {
-  const MPI_Comm comm = comm_of(tree);
-  int rank = 0;
-  if (comm != MPI_COMM_NULL) MPI_Comm_rank(comm, &rank);
+  const parallel::Comm* ranks = ranks_of(tree);
+  const MPI_Comm comm = ranks ? ranks->handle() : MPI_COMM_NULL;
+  const int rank = ranks ? ranks->rank() : 0;
   const std::vector<ExtraArray> extras =
       comm == MPI_COMM_NULL ? std::vector<ExtraArray>(root_extras.begin(), root_extras.end())
                             : shapes_from_root(comm, root_extras);
@@ -204,10 +204,9 @@ void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tr
     return;
   }
   // N ranks: one temporary, written by all; rank 0 renames it once every rank has closed it.
-  const parallel::Comm& ranks = dynamic_cast<const tree::DistributedForest<D>*>(tree.distribution())->comm();
   const std::string tmp = shared_string(comm, temporary_path_for(path).string());
   try {
-    parallel::all_or_none(ranks, [&] { write_file(tmp); });
+    parallel::all_or_none(*ranks, [&] { write_file(tmp); });
   } catch (...) {
     if (rank == 0) {
       std::error_code ignored;
@@ -215,7 +214,7 @@ void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tr
     }
     throw;
   }
-  parallel::all_or_none(ranks, [&] {
+  parallel::all_or_none(*ranks, [&] {
     if (rank == 0) commit_temporary(tmp, path);
   });
 }

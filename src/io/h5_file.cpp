@@ -95,6 +95,7 @@ void H5Io::write(hid_t loc, const std::string& name, hid_t type, const std::vect
     return;
   }
   // A scalar lives in its (checksummed) object header; every process writes the same value.
+  if (H5Tget_size(type) != 8) fail(fmt::format("dataset {}: checksums cover 8-byte values only", name));
   const Handle space = dataspace(shape);
   const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
   const bool ok = dcpl.valid() && H5Pset_layout(dcpl.get(), H5D_COMPACT) >= 0;
@@ -103,7 +104,6 @@ void H5Io::write(hid_t loc, const std::string& name, hid_t type, const std::vect
                    H5Dclose);
   if (!set.valid() || H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
     fail(fmt::format("cannot write dataset {}", name));
-  if (H5Tget_size(type) != 8) fail(fmt::format("dataset {}: checksums cover 8-byte values only", name));
   const std::uint64_t sum = indexed_checksum(data, 1, 0);
   attribute(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, {}, &sum);
 }
