@@ -115,7 +115,22 @@ class FlowRun {
       io::CheckpointExpectations expect{.t_end = c.time.t_end, .capsule_nodes = std::vector<std::size_t>{}};
       for (int i = 0; capsules_ && i < capsules_->coupling().num_capsules(); ++i)
         expect.capsule_nodes->push_back(static_cast<std::size_t>(capsules_->coupling().capsule(i).x.cols()));
-      const io::RestoredState state = io::read_checkpoint<D>(*request_.restart, tree_, expect);
+      // On N ranks each reads its share of the leaves and keeps its part (the faces too).
+      io::RestoredState state;
+      if (comm_.size() > 1) {
+        static const std::vector<std::string> kPerLeaf{"face_velocity"};
+        io::DistributedRestart<D> part = io::read_checkpoint_distributed<D>(comm_, *request_.restart, tree_, expect, kPerLeaf);
+        forest_ = std::move(part.forest);
+        state = std::move(part.state);
+        for (io::LeafArray& a : part.leaf_arrays) {
+          if (a.per_leaf != 2 * D)
+            throw io::CheckpointError(fmt::format("{}: /extras/face_velocity holds {} values per leaf, expected {}",
+                                                  request_.restart->string(), a.per_leaf, 2 * D));
+          restart_faces_ = std::move(a.values);
+        }
+      } else {
+        state = io::read_checkpoint<D>(*request_.restart, tree_, expect);
+      }
       ns_.set_time(state.scalars.time);
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);
@@ -126,19 +141,15 @@ class FlowRun {
         if (e.name == "face_velocity_current" && e.values.size() == 1) restart_faces_current_ = e.values[0] != 0.0;
       for (const auto& e : state.extras)
         if (e.name == "face_velocity") restart_faces_ = e.values;
-      if (!restart_faces_.empty()) {
-        restart_face_order_ = ns_.leaf_order();
-        if (comm_.size() == 1) restore_faces();
-      }
+      if (comm_.size() == 1 && !restart_faces_.empty()) restore_faces();
     } else {
       if (comm_.size() > 1) distribute_coarse_start();
       if (capsules_) capsules_->distribute();  // each rank keeps its own (N ranks)
       (void)adaptation_.refine_initial();
       budget_->start();
     }
-    // A restart on N ranks: every rank has read the same forest; each keeps its part.
-    if (comm_.size() > 1 && !forest_) {
-      forest_ = tree::distribute(comm_, tree_);
+    // A restart on N ranks: each rank holds its part of the forest.
+    if (comm_.size() > 1 && request_.restart) {
       weigh_membranes();
       if (capsules_) capsules_->distribute();
       if (!restart_faces_.empty()) restore_faces();
@@ -362,11 +373,11 @@ class FlowRun {
     return file;
   }
 
-  // The checkpoint's faces on this rank's leaves (restart_face_order_: the checkpoint's leaves
-  // by (level, key)). Collective on N ranks.
+  // The checkpoint's faces on this rank's leaves (their rows by (level, key)). Collective on N
+  // ranks.
   void restore_faces() {
     try {
-      ns_.restore_leaf_faces(restart_faces_, restart_faces_current_, restart_face_order_);
+      ns_.restore_leaf_faces(restart_faces_, restart_faces_current_);
     } catch (const std::invalid_argument& err) {
       throw io::CheckpointError(fmt::format("{}: {}", request_.restart->string(), err.what()));
     }
@@ -455,10 +466,9 @@ class FlowRun {
   std::optional<EnergyBudget<D>> budget_;  // the energy columns of diagnostics.csv
   ProgressLine progress_;
   long unconverged_since_row_ = 0;  // the next diagnostics row's mg_unconverged
-  // A restart's projected faces and its leaves' order, until restored (after distribution).
+  // A restart's projected faces, this rank's leaves' rows, until restored (after distribution).
   std::vector<double> restart_faces_;
   bool restart_faces_current_ = true;
-  std::vector<std::pair<int, tree::Key>> restart_face_order_;
   bool warned_unconverged_ = false;
 };
 

@@ -89,22 +89,15 @@ std::vector<std::pair<int, tree::Key>> NavierStokes<D>::leaf_order() const {
 }
 
 template <int D>
-void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool current,
-                                         std::span<const std::pair<int, tree::Key>> order) {
-  const std::vector<std::pair<int, tree::Key>> own_order = order.empty() ? leaf_order() : std::vector<std::pair<int, tree::Key>>{};
-  if (order.empty()) order = own_order;
-  if (values.size() != order.size() * 2 * D)
+void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool current) {
+  const std::vector<Index> leaves = tree::owned_leaves_by_key(tree_);  // leaf_order()
+  if (values.size() != leaves.size() * 2 * D)
     throw std::invalid_argument(fmt::format("face velocity: {} values for {} leaves (2D per leaf expected)",
-                                            values.size(), order.size()));
+                                            values.size(), leaves.size()));
   resize_scratch();
-  for (const Index c : tree_.owned_leaves()) {  // every leaf on one rank
-    const int l = tree_.level_of(c);
-    const std::pair<int, tree::Key> key{l, tree_.level(l).keys[static_cast<std::size_t>(c - tree_.level(l).base)]};
-    const auto it = std::lower_bound(order.begin(), order.end(), key);
-    if (it == order.end() || *it != key)
-      throw std::invalid_argument(fmt::format("face velocity: leaf (level {}, key {}) is not the checkpoint's", l, key.second));
-    std::size_t k = static_cast<std::size_t>(it - order.begin()) * 2 * D;
-    const Index* row = tree_.level(l).face_row(c);
+  std::size_t k = 0;
+  for (const Index c : leaves) {
+    const Index* row = tree_.level(tree_.level_of(c)).face_row(c);
     for (int d = 0; d < D; ++d) {
       uf_[d][c] = values[k++];
       uf_[d][row[2 * d + 1]] = values[k++];

@@ -130,12 +130,9 @@ class NavierStokes {
   // The leaves by (level, key), the order of leaf_faces().
   std::vector<std::pair<int, tree::Key>> leaf_order() const;
   // Restores what leaf_faces() gave, as current faces when `current`, else as carried ones:
-  // on one rank on the same leaf set (a checkpoint's), on N ranks on each rank's leaves,
-  // found in `order` (the checkpoint's leaf_order(), taken before the tree was distributed;
-  // empty: this tree's own). Throws std::invalid_argument for a size that is not 2D per
-  // leaf or a leaf not in `order`. Collective on N ranks.
-  void restore_leaf_faces(std::span<const double> values, bool current,
-                          std::span<const std::pair<int, tree::Key>> order = {});
+  // the values of this rank's owned leaves in leaf_order(). Throws std::invalid_argument for a
+  // size that is not 2D per leaf. Collective on N ranks.
+  void restore_leaf_faces(std::span<const double> values, bool current);
 
   // Body force per unit volume on faces, filled by the caller before each step's
   // acceleration stage (IBM forces, gravity, a pressure drop). Zero when not set.

@@ -12,12 +12,15 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "io/errors.hpp"
+#include "parallel/comm.hpp"
+#include "tree/distributed_forest.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::io {
@@ -86,6 +89,29 @@ void write_checkpoint(const std::filesystem::path& path, const tree::Tree<D>& tr
 template <int D>
 [[nodiscard]] RestoredState read_checkpoint(const std::filesystem::path& path, tree::Tree<D>& tree,
                                             const CheckpointExpectations& expect = {});
+
+// A restart on N ranks: the checkpoint's state, the plan of this rank's part, and the per-leaf
+// extras named by the caller as this rank's owned leaves' rows (LeafArray's order; an extra
+// the file lacks is absent).
+template <int D>
+struct DistributedRestart {
+  RestoredState state;  // scalars and the other extras, read by every rank
+  std::unique_ptr<tree::DistributedForest<D>> forest;
+  std::vector<LeafArray> leaf_arrays;
+};
+
+// read_checkpoint on the ranks of comm (more than one): each rank reads its share of the
+// leaves' rows (versions 1 and 2, whose checksums chain through the bytes in order: the whole
+// file), the leaves go to their owners under the partition tree::distribute gives them, and
+// `tree` becomes this rank's local tree of `forest` with the leaf values restored and synced.
+// The same checks as read_checkpoint (the leaf set's tiling and 2:1 balance checked across the
+// ranks), and every rank throws the same CheckpointError. `leaf_arrays`: the extras that hold
+// one row per leaf (LeafArray). Collective.
+template <int D>
+[[nodiscard]] DistributedRestart<D> read_checkpoint_distributed(const parallel::Comm& comm,
+                                                                const std::filesystem::path& path, tree::Tree<D>& tree,
+                                                                const CheckpointExpectations& expect,
+                                                                std::span<const std::string> leaf_arrays);
 
 extern template void write_checkpoint<2>(const std::filesystem::path&, const tree::Tree<2>&,
                                          const CheckpointScalars&, std::span<const ExtraArray>,

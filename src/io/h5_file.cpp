@@ -258,6 +258,60 @@ Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::s
   return a;
 }
 
+std::vector<hsize_t> H5Io::shape_of(hid_t loc, const std::string& name, const std::string& path) const {
+  if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
+  const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
+  Array<std::uint64_t> a;
+  if (!set.valid() || !sized_from(H5Dget_space(set.get()), a, value_limit(loc, H5Dget_type(set.get()))))
+    fail(fmt::format("{}: unreadable shape, or more values than the file holds (corrupt?)", path));
+  return a.shape;
+}
+
+template <class T>
+Rows<T> H5Io::read_rows(hid_t loc, const std::string& name, hid_t type, const std::string& path, RowRun rows) const {
+  static_assert(sizeof(T) == 8, "checkpoint datasets hold 8-byte values");
+  if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
+  const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!set.valid())
+    fail(fmt::format("{} is not a readable dataset{}", path,
+                     error_stack_mentions_checksum() ? " (checksum mismatch: the file is corrupt)" : ""));
+  Rows<T> out;
+  const Handle file_space(H5Dget_space(set.get()), H5Sclose);
+  const int dims = file_space.valid() ? H5Sget_simple_extent_ndims(file_space.get()) : -1;
+  if (dims < 1) fail(fmt::format("{}: expected an array of rows", path));
+  out.shape.resize(static_cast<std::size_t>(dims));
+  if (H5Sget_simple_extent_dims(file_space.get(), out.shape.data(), nullptr) < 0)
+    fail(fmt::format("{}: unreadable shape", path));
+  if (rows.first + rows.count > out.shape[0])
+    fail(fmt::format("{}: rows [{}, {}) asked of {}", path, rows.first, rows.first + rows.count, out.shape[0]));
+  hsize_t per_row = 1;
+  for (std::size_t i = 1; i < out.shape.size(); ++i) per_row *= out.shape[i];
+  if (per_row > 0 && rows.count > value_limit(loc, H5Dget_type(set.get())) / per_row)
+    fail(fmt::format("{}: more values than the file holds (corrupt?)", path));
+  if (out.shape[0] > 0 && per_row > 0 && !has_fletcher32(set.get()))
+    fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
+  if (H5Aexists(set.get(), kChecksumAttribute) <= 0)
+    fail(fmt::format("{} carries no checksum (every dataset of this format version must)", path));
+  const auto sum = read_attribute<std::uint64_t>(set.get(), kChecksumAttribute, H5T_NATIVE_UINT64, path + "@checksum");
+  if (sum.values.size() != 1) fail(fmt::format("{}@checksum is not one value", path));
+  out.stored_checksum = sum.values[0];
+  const hsize_t n = rows.count * per_row;
+  out.values.resize(static_cast<std::size_t>(n));
+  if (n > 0) {
+    std::vector<hsize_t> start(out.shape.size(), 0), count = out.shape;
+    start[0] = rows.first;
+    count[0] = rows.count;
+    const Handle memory_space(H5Screate_simple(1, &n, nullptr), H5Sclose);
+    if (H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0 ||
+        !memory_space.valid() ||
+        H5Dread(set.get(), type, memory_space.get(), file_space.get(), H5P_DEFAULT, out.values.data()) < 0)
+      fail(error_stack_mentions_checksum() ? fmt::format("dataset {} fails its checksum: the file is corrupt", path)
+                                           : fmt::format("cannot read dataset {} (corrupt file?)", path));
+  }
+  out.checksum_part = indexed_checksum(out.values.data(), out.values.size(), rows.first * per_row);
+  return out;
+}
+
 template <class T>
 Array<T> H5Io::read_attribute(hid_t loc, const std::string& name, hid_t type, const std::string& path) const {
   if (H5Aexists(loc, name.c_str()) <= 0) fail(fmt::format("missing attribute {}", path));
@@ -329,6 +383,9 @@ bool error_stack_mentions_checksum() {
 template Array<double> H5Io::read<double>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<std::int64_t> H5Io::read<std::int64_t>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<std::uint64_t> H5Io::read<std::uint64_t>(hid_t, const std::string&, hid_t, const std::string&) const;
+template Rows<double> H5Io::read_rows<double>(hid_t, const std::string&, hid_t, const std::string&, RowRun) const;
+template Rows<std::uint64_t> H5Io::read_rows<std::uint64_t>(hid_t, const std::string&, hid_t, const std::string&,
+                                                            RowRun) const;
 template Array<double> H5Io::read_attribute<double>(hid_t, const std::string&, hid_t, const std::string&) const;
 template Array<std::uint64_t> H5Io::read_attribute<std::uint64_t>(hid_t, const std::string&, hid_t,
                                                                   const std::string&) const;

@@ -81,6 +81,17 @@ struct RowRun {
   hsize_t first = 0, count = 0;
 };
 
+// Some rows of a version-3 dataset, read by one of the processes that share it: the
+// dataset's whole shape, the rows' values, their terms of the checksum (the processes' parts
+// add up to the stored sum) and the stored sum.
+template <class T>
+struct Rows {
+  std::vector<hsize_t> shape;
+  std::vector<T> values;
+  std::uint64_t checksum_part = 0;
+  std::uint64_t stored_checksum = 0;
+};
+
 // Reading and writing helpers. Failures throw CheckpointError ("<file>: <what>") when
 // reading, std::runtime_error when writing (a write failure is not the file's fault).
 // Writing on N processes (comm != MPI_COMM_NULL, the file opened with mpio_file_access):
@@ -117,6 +128,13 @@ class H5Io {
   template <class T>
   Array<T> read_attribute(hid_t loc, const std::string& name, hid_t type, const std::string& path) const;
   std::string read_string_attribute(hid_t loc, const std::string& name, const std::string& path) const;
+  // A dataset's shape, without reading it.
+  std::vector<hsize_t> shape_of(hid_t loc, const std::string& name, const std::string& path) const;
+  // Rows [rows.first, rows.first + rows.count) of a checksummed (version 3) dataset, every
+  // value of each; the caller compares the processes' summed checksum_part with
+  // stored_checksum. Local: no other process takes part.
+  template <class T>
+  Rows<T> read_rows(hid_t loc, const std::string& name, hid_t type, const std::string& path, RowRun rows) const;
   // The names of a group's members, in name order.
   std::vector<std::string> members(hid_t group, const std::string& path) const;
 

@@ -6,7 +6,8 @@
 #     column but the wall time), the same cells_final.csv and the same snapshots' count as
 #     the run without mpirun;
 #     the 3D duct (adaptive) on 4 ranks the same;
-#  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends;
+#  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends
+#     (each rank reads its share of the rows); one of format version 2 restarts on 2 as on 1;
 #  3. carried faces (fluid.carry_faces) on 2 and 3 ranks, uniform and adaptive, as one rank;
 #     a warning (unconverged solves) printed once, not once per rank;
 #     a uniform grid too big for this node, and a capsule with the cell-centred coupling, on 2
@@ -92,6 +93,35 @@ checkpoint=$(ls "$dir/np2"/checkpoint_000020.h5) || fail "2 ranks wrote no check
   fail "restart on 3 ranks: exit $? $(cat "$dir/err")"
 cmp -s "$dir/serial/cells_final.csv" "$dir/restart/cells_final.csv" || fail "restart on 3 ranks ends elsewhere"
 echo "checkpoint of 2 ranks restarted on 3: same final cells"
+
+# A checkpoint of format version 2 (its checksums chain through the bytes: every rank reads
+# it whole) restarts on 2 ranks as on one (tests/app/data, the small cavity of
+# tests/app/small_cavity.hpp, carried faces).
+cat > "$dir/small_cavity.toml" <<'TOML'
+name = "c"
+dimension = 2
+[domain]
+roots = [1, 1]
+[fluid.boundary]
+x_lo = { type = "wall" }
+x_hi = { type = "wall" }
+y_lo = { type = "wall" }
+y_hi = { type = "moving_wall", velocity = [1.0, 0.0] }
+[adapt]
+min_level = 3
+max_level = 4
+[time]
+dt = 0.01
+t_end = 0.02
+TOML
+v2=(run "$dir/small_cavity.toml" --quiet --set fluid.carry_faces=true --set output.vtu=false
+    --restart "$(dirname "$0")/../app/data/checkpoint_v2_small_cavity.h5")
+"$capsflow" "${v2[@]}" --out "$dir/v2.1" || fail "version-2 checkpoint on one rank: exit $?"
+"$mpiexec" -n 2 --oversubscribe "$capsflow" "${v2[@]}" --out "$dir/v2.2" 2> "$dir/err" ||
+  fail "version-2 checkpoint on 2 ranks: exit $? $(cat "$dir/err")"
+diff <(no_wall "$dir/v2.1/diagnostics.csv") <(no_wall "$dir/v2.2/diagnostics.csv") > /dev/null ||
+  fail "version-2 checkpoint on 2 ranks: diagnostics differ from one rank"
+echo "checkpoint of format version 2 restarted on 2 ranks: one rank's diagnostics"
 
 # Carried faces (fluid.carry_faces): on 2 ranks, uniform and adaptive (the faces travel
 # through the distributed adaptations), one rank's numbers.
