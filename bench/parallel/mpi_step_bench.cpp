@@ -114,8 +114,8 @@ int main(int argc, char** argv) {
         MPI_Barrier(comm.handle());
         const auto begin = std::chrono::steady_clock::now();
         for (int r = 0; r < kRepeats; ++r) {
-          if (colour) t.exchange_level_colour(static_cast<int>(l), scratch, r & 1);
-          else t.exchange_level(static_cast<int>(l), scratch);
+          if (colour) t.update_ghosts(static_cast<int>(l), scratch, r & 1);
+          else t.update_ghosts(static_cast<int>(l), scratch);
         }
         const double each = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count() / kRepeats;
         exchange_seconds += per_step * parallel::global_max(comm, each);
@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
       std::vector<std::span<double>> spans(fields.begin(), fields.end());
       MPI_Barrier(comm.handle());
       const auto begin = std::chrono::steady_clock::now();
-      for (int r = 0; r < kRepeats; ++r) t.exchange_all(spans);
+      for (int r = 0; r < kRepeats; ++r) t.update_ghosts(spans);
       const double each = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count() / kRepeats;
       exchange_seconds += whole_per_step * parallel::global_max(comm, each);
     }

@@ -103,7 +103,7 @@ void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool cu
       uf_[d][row[2 * d + 1]] = values[k++];
     }
   }
-  tree_.exchange_all(components<D>(uf_));  // the ghosts' faces from their owners
+  tree_.update_ghosts(components<D>(uf_));  // the ghosts' faces from their owners
   faces_current_ = current;
   faces_carried_ = !current;
 }
@@ -319,7 +319,7 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
   restrict_faces<D>(tree_, uf);
   // Distributed: a ghost's coarse face is the mean of fine faces this rank may not have;
   // the owners' projected faces instead (the advection reads the ghosts' faces).
-  tree_.exchange_all(components<D>(uf));
+  tree_.update_ghosts(components<D>(uf));
   return s.cycles;
 }
 
@@ -358,7 +358,7 @@ void NavierStokes<D>::centred_gradient(double dt, bool only_g) {
     gu[d] = tree_.values(g_[d]);
     gu[D + d] = tree_.values(u_[d]);
   }
-  tree_.exchange_all(gu);
+  tree_.update_ghosts(gu);
 }
 
 template <int D>
@@ -435,7 +435,7 @@ void NavierStokes<D>::carry_faces_in_fields() {
     if (same(lo) && same(hi)) uf_[d][hi] = tree_.values(kept_fields_[d])[hi];
   });
   restrict_faces<D>(tree_, uf_);
-  tree_.exchange_all(components<D>(uf_));
+  tree_.update_ghosts(components<D>(uf_));
   faces_carried_ = true;
 }
 

@@ -43,7 +43,7 @@ void slopes(const tree::Tree<D>& t, std::span<const double> f, bool limited,
   });
   // Distributed: a ghost's slope from its owner (its own stencil may reach past the ghost
   // layer), before the halos copy it.
-  t.exchange_all(components<D>(out));
+  t.update_ghosts(components<D>(out));
   for (int d = 0; d < D; ++d) inject_halo<D>(t, out[d]);
 }
 
@@ -94,7 +94,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
     }
     g[d] = src;
   }
-  tree_.exchange_all(components<D>(source_));  // distributed: as the slopes (owned leaves computed)
+  tree_.update_ghosts(components<D>(source_));  // distributed: as the slopes (owned leaves computed)
   for (int d = 0; d < D; ++d) inject_halo<D>(tree_, source_[d]);
   sync_velocity();  // back to the linear halos the slopes and faces use
   // 1. Prediction of the normal velocity on every face, then its approximate projection.
@@ -112,7 +112,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   }
   // Distributed: the ghosts' lower faces from their owners; the advection's transverse
   // velocities read the faces of the cells next to the owned ones.
-  tree_.exchange_all(components<D>(uf_));
+  tree_.update_ghosts(components<D>(uf_));
   restrict_faces<D>(tree_, uf_);
   stats.prediction_cycles += project(uf_, pf_, 0.5 * dt, options_.projection, stats);
 
@@ -141,7 +141,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   // other component's cells, so all D go together after the last).
   std::array<std::span<double>, D> advected;
   for (int c = 0; c < D; ++c) advected[c] = tree_.values(u_[c]);
-  tree_.exchange_all(advected);
+  tree_.update_ghosts(advected);
 }
 
 template void NavierStokes<2>::prediction_and_advection(double, StepStats&);

@@ -215,7 +215,7 @@ void CapsuleCoupling::distributed_spreading(int step) {
     spread_routed(step);
   });
   // The ghosts' faces hold their owners' sums (the flow's face loops read them).
-  ns_.tree().exchange_all(fluid::components<3>(face_force_));
+  ns_.tree().update_ghosts(fluid::components<3>(face_force_));
   force_ready_ = true;
   times_.spreading += seconds_since(t0);
   if (scheme_ == NodeScheme::midpoint) {  // J(X*) u^n, as predict_midpoint on one rank

@@ -418,7 +418,7 @@ DistributedRestart<D> read_checkpoint_distributed(const parallel::Comm& comm, co
   }
   for (const auto& [name, f] : saved) {
     if (tree.field_spec(f).prolongation != tree::Prolongation::none) tree.sync(f);
-    else tree.exchange_all(tree.values(f));
+    else tree.update_ghosts(tree.values(f));
   }
   // The per-leaf extras, rows of this rank's leaves by (level, key) (LeafArray's order).
   const std::vector<tree::Index> by_key = tree::owned_leaves_by_key(tree);

@@ -621,7 +621,7 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
     // The owners' wishes on the ghosts; placeholders keep.
     std::fill(flags.begin(), flags.end(), 0.0);
     for (const Index c : owned_leaves) flags[static_cast<std::size_t>(c)] = wish[static_cast<std::size_t>(c)];
-    t.exchange_all(flags);
+    t.update_ghosts(flags);
     for (const Index c : t.leaves()) t.flags_[static_cast<std::size_t>(c)] = static_cast<std::int8_t>(flags[static_cast<std::size_t>(c)]);
     (void)t.decide(min_level);
     // A merge is the parent's owner's decision.
@@ -631,7 +631,7 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
       for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
         if (!lv.is_leaf(c) && t.owns(c) && !t.refined_next_[static_cast<std::size_t>(c)]) merges[static_cast<std::size_t>(c)] = 1.0;
     }
-    t.exchange_all(merges);
+    t.update_ghosts(merges);
     std::int64_t changed = 0;
     for (const Index c : owned_leaves) {
       const int l = t.level_of(c);
@@ -739,7 +739,7 @@ void DistributedForest<D>::repartition(Tree<D>& t, std::span<const CurveCell> le
     for (int f = 0; f < fields; ++f)
       t.values(f)[static_cast<std::size_t>(c)] = moved.values[i * static_cast<std::size_t>(fields) + static_cast<std::size_t>(f)];
   }
-  for (int f = 0; f < fields; ++f) t.exchange_all(t.values(f));
+  for (int f = 0; f < fields; ++f) t.update_ghosts(t.values(f));
 }
 
 template <int D>

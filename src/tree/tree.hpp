@@ -287,22 +287,26 @@ class Tree {
   // The deepest level on any rank: the range of every loop that exchanges.
   int global_depth() const { return global_depth_; }
   bool replicated_level(int l) const { return dist_ != nullptr && dist_->replicated(l); }
-  void exchange_level(int l, std::span<double> v) const {
-    if (dist_) dist_->exchange(l, {&v, 1});
-  }
-  void exchange_level(int l, Distribution::Fields fields) const {
-    if (dist_) dist_->exchange(l, fields);
-  }
-  void exchange_level_colour(int l, std::span<double> v, int colour) const {
-    if (dist_) dist_->exchange_colour(l, v, colour);
-  }
-  // Ghosts of every level, of one field or of several at once (one message per neighbour
-  // rank for all: the flow step exchanges its D velocity components together).
-  void exchange_all(std::span<double> v) const {
+  // The one verb of the distributed layer the solvers see: update the ghosts (each ghost
+  // cell takes its owner's value; nothing on one rank). Scopes: every level (of one field or
+  // of several at once: one message per neighbour rank for all), one level, one red-black
+  // colour of a level (the relaxation's). Its reverse, "add what ghosts hold into their
+  // owners", is not needed: sums over cells of several ranks (the capsules' spread forces)
+  // are made where the cells are owned, in one rank's order (docs/parallel.md, "Capsules").
+  void update_ghosts(std::span<double> v) const {
     if (dist_) dist_->exchange_all({&v, 1});
   }
-  void exchange_all(Distribution::Fields fields) const {
+  void update_ghosts(Distribution::Fields fields) const {
     if (dist_) dist_->exchange_all(fields);
+  }
+  void update_ghosts(int l, std::span<double> v) const {
+    if (dist_) dist_->exchange(l, {&v, 1});
+  }
+  void update_ghosts(int l, Distribution::Fields fields) const {
+    if (dist_) dist_->exchange(l, fields);
+  }
+  void update_ghosts(int l, std::span<double> v, int colour) const {
+    if (dist_) dist_->exchange_colour(l, v, colour);
   }
   double global_sum(const parallel::ExactSum& local) const { return dist_ ? dist_->sum(local) : local.value(); }
   double global_max(double local) const { return dist_ ? dist_->max(local) : local; }

@@ -221,7 +221,7 @@ void Tree<D>::restrict_and_exchange(Distribution::Fields fields, int coarsest) c
   for (int l = global_depth_; l >= coarsest; --l) {
     if (l < depth_)
       for (const std::span<double> v : fields) restrict_level(l, v);
-    exchange_level(l, fields);
+    update_ghosts(l, fields);
   }
 }
 
@@ -245,7 +245,7 @@ void Tree<D>::exchange_restricted(std::span<double> v) const {
         }
       }
     }
-    exchange_level(l, v);
+    update_ghosts(l, v);
   }
 }
 
@@ -290,7 +290,7 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
     // parents any rank's owned cells read through a halo (set_distribution), restricted.
     for (int l = global_depth_; l >= leaf_sync_exchange_from_; --l) {
       if (l < depth_ && l >= leaf_sync_restrict_from_) restrict_level(l, v);
-      exchange_level(l, v);
+      update_ghosts(l, v);
     }
   }
   for (int l = 0; l <= depth_; ++l) {

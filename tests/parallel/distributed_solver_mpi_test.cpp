@@ -57,7 +57,7 @@ void check_ghosts(const TreeOptions<D>& o) {
   for (int l = 0; l <= t.depth(); ++l)
     for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c)
       if (t.owns(c)) v[static_cast<std::size_t>(c)] = value(c);
-  t.exchange_all(v);
+  t.update_ghosts(v);
   std::int64_t received = 0, wrong = 0, missing = 0;
   for (int l = 0; l <= t.depth(); ++l) {
     const Level<D>& lv = t.level(l);
@@ -104,7 +104,7 @@ void check_ghosts(const TreeOptions<D>& o) {
     for (int l = 0; l <= t.depth(); ++l)
       for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c)
         if (t.owns(c) && colour_of(c) == colour) w[static_cast<std::size_t>(c)] = -value(c);
-    for (int l = 0; l <= t.depth(); ++l) t.exchange_level_colour(l, w, colour);
+    for (int l = 0; l <= t.depth(); ++l) t.update_ghosts(l, w, colour);
     std::int64_t stale = 0, touched = 0;
     for (int l = 0; l <= t.depth(); ++l)
       for (Index c = t.level(l).active_begin(); c < t.level(l).active_end(); ++c) {
@@ -130,9 +130,9 @@ void check_ghosts(const TreeOptions<D>& o) {
           if (t.owns(c)) w[k][static_cast<std::size_t>(c)] = (k + 1) * value(c) + k;
     std::vector<std::span<double>> fields(w.begin(), w.end());
     if (by_level) {
-      for (int l = 0; l <= t.global_depth(); ++l) t.exchange_level(l, fields);
+      for (int l = 0; l <= t.global_depth(); ++l) t.update_ghosts(l, fields);
     } else {
-      t.exchange_all(fields);
+      t.update_ghosts(fields);
     }
     std::int64_t mismatched = 0;
     for (int k = 0; k < kFields; ++k)

@@ -138,9 +138,9 @@ class EllipticOperator {
         // of the other one already hold their owners' values, and only half are sent.
         const bool exchange = !tree_.replicated_level(l);
         relax_colour<0>(l, lv, diag, da, res, {});
-        if (exchange) tree_.exchange_level_colour(l, da, 0);
+        if (exchange) tree_.update_ghosts(l, da, 0);
         relax_colour<1>(l, lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
-        if (exchange) tree_.exchange_level_colour(l, da, 1);
+        if (exchange) tree_.update_ghosts(l, da, 1);
       } else {
         const Index n = lv.n_active, base = lv.base;
         const double w = opt.jacobi_weight;
@@ -151,7 +151,7 @@ class EllipticOperator {
           da[base + i] = scratch[base + i];
           if (fuse && last && lv.leaf[i]) corrected[base + i] += da[base + i];
         }
-        if (!tree_.replicated_level(l)) tree_.exchange_level(l, da);
+        if (!tree_.replicated_level(l)) tree_.update_ghosts(l, da);
       }
       tree_.fill_boundary_cells(l, da, correction_bc_);
     }
