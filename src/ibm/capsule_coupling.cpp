@@ -380,6 +380,7 @@ const fluid::FaceField<3>& CapsuleCoupling::start_face_velocity() {
   fluid::for_each_face<3>(t, [&](int d, Index lo, Index hi, double, const tree::Level<3>&) {
     start_faces_[d][hi] = 0.5 * (u[d][lo] + u[d][hi]);
   });
+  t.update_ghosts(fluid::components<3>(start_faces_));  // every ghost's faces: a node's interpolator reads them
   return start_faces_;
 }
 

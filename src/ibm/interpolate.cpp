@@ -119,7 +119,23 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
   out.values.clear();
   const int level = t.max_level();
   const double h = t.cell_size(level);
-  for (Eigen::Index i = 0; i < n; ++i)
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const NodeBoxes::Interpolator who = boxes ? boxes->interpolator(i) : NodeBoxes::Interpolator::parts;
+    if (who == NodeBoxes::Interpolator::elsewhere) continue;
+    if (who == NodeBoxes::Interpolator::here) {  // every cell held here: the whole sums
+      for (int d = 0; d < 3; ++d) {
+        const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), d);
+        Index c[kMaxCells];
+        if (!boxes->held_stencil_cells(i, st, c))
+          require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName);
+        double values[kMaxCells];
+        for (int s = 0; s < st.size(); ++s) values[s] = uf[d][c[s]];
+        const auto k = static_cast<std::size_t>(3 * i + d);
+        out.kind[k] = PartialVelocities::kSum;
+        out.sum[k] = box_sum(st, values);
+      }
+      continue;
+    }
     for (int d = 0; d < 3; ++d) {
       const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), d);
       Index c[kMaxCells];
@@ -146,6 +162,7 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
           out.values.push_back(u[c[s]]);
         }
     }
+  }
 }
 
 template <Kernel K>

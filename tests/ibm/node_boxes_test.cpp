@@ -2,7 +2,8 @@
 // kernel pair a coupling may use is copied out of its node's box with exactly the cells
 // find_box locates; a box the tree cannot complete hands the node back to the stages' own
 // search; cells outside this rank's positions are left out as find_owned_box leaves them;
-// and spreading and interpolating through the boxes give the same bits as without them.
+// spreading and interpolating through the boxes give the same bits as without them; and on
+// N ranks each node is interpolated whole by one rank, the owner of its box's centre.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -125,6 +126,48 @@ TEST(NodeBoxes, SpreadingAndInterpolationThroughTheBoxesAreBitIdentical) {
     interpolate_faces(p.interpolate, p.divergence_free, t, uf, x, v_searched);
     interpolate_faces(p.interpolate, p.divergence_free, t, uf, x, v_copied, &boxes);
     EXPECT_TRUE((v_searched.array() == v_copied.array()).all());
+  }
+}
+
+TEST(NodeBoxes, EachNodeIsInterpolatedWholeByOneRankAsOneRankWould) {
+  // Two "ranks" owning the first and the second root, each holding every cell (a ghost layer
+  // wider than any box): for each node one of them interpolates every component whole, the
+  // other nothing, and the sums are the one-rank velocities to the bit.
+  const Eigen::Matrix3Xd x = test::random_ball(400, 0.2, {1.0, 0.5, 0.5}, 16);
+  const tree::Tree<3> t = test::refined_around(kBox, x, 5);
+  fluid::FaceField<3> uf;
+  fluid::resize<3>(uf, t);
+  for (int d = 0; d < 3; ++d)
+    for (std::size_t c = 0; c < uf[d].size(); ++c) uf[d][c] = std::cos(0.29 * static_cast<double>(c) - d);
+  const tree::Key half = tree::curve_position<3>(0, tree::morton_encode<3>({1, 0, 0}), kBox.max_level);
+  const std::array<OwnedPositions, 2> ranks{OwnedPositions{.begin = 0, .end = half},
+                                            OwnedPositions{.begin = half, .end = ~tree::Key{0}}};
+  for (const Pair& p : kPairs) {
+    Eigen::Matrix3Xd whole;
+    interpolate_faces(p.interpolate, p.divergence_free, t, uf, x, whole);
+    std::array<NodeBoxes, 2> boxes;
+    std::array<PartialVelocities, 2> parts;
+    const std::array kinds{p.spread, p.interpolate};
+    for (int r = 0; r < 2; ++r) {
+      boxes[r].find(t, x, kinds, p.divergence_free, ranks[r]);
+      interpolate_faces_owned(p.interpolate, p.divergence_free, t, uf, x, ranks[r], parts[r], &boxes[r]);
+    }
+    int on_each[2] = {0, 0};
+    for (Eigen::Index i = 0; i < x.cols(); ++i) {
+      const bool first = boxes[0].interpolator(i) == NodeBoxes::Interpolator::here;
+      ASSERT_NE(first, boxes[1].interpolator(i) == NodeBoxes::Interpolator::here) << "node " << i << ": one interpolator";
+      const int r = first ? 0 : 1;
+      EXPECT_EQ(boxes[1 - r].interpolator(i), NodeBoxes::Interpolator::elsewhere);
+      ++on_each[r];
+      for (int d = 0; d < 3; ++d) {
+        const auto k = static_cast<std::size_t>(3 * i + d);
+        ASSERT_EQ(parts[r].kind[k], PartialVelocities::kSum);
+        EXPECT_EQ(parts[1 - r].kind[k], PartialVelocities::kNothing);
+        EXPECT_EQ(parts[r].sum[k], whole(d, i)) << "node " << i << " component " << d;
+      }
+    }
+    EXPECT_GT(on_each[0], 0);
+    EXPECT_GT(on_each[1], 0) << "the nodes straddle the split";
   }
 }
 
