@@ -301,11 +301,18 @@ void CapsuleCoupling::spread_forces(int step) {
 }
 
 void CapsuleCoupling::zero_unspread_forces() {
+  // A field no capsule spread into this step must be zero; one known zero at this size stays
+  // so (a new tree of the same size is zero too) until a spreading or an exchange writes it.
   const auto cells = static_cast<std::size_t>(ns_.tree().num_cells());
-  if (!any_cells_)
-    for (auto& f : force_) f.assign(cells, 0.0);
-  if (!any_faces_)
-    for (auto& f : face_force_) f.assign(cells, 0.0);
+  const auto zero = [cells](auto& field, bool& known_zero) {
+    if (known_zero && field[0].size() == cells) return;
+    for (auto& f : field) f.assign(cells, 0.0);
+    known_zero = true;
+  };
+  if (!any_cells_) zero(force_, force_zero_);
+  else force_zero_ = false;
+  if (!any_faces_) zero(face_force_, face_force_zero_);
+  else face_force_zero_ = false;
 }
 
 void CapsuleCoupling::interpolate_velocities(int step) {
@@ -462,7 +469,7 @@ void CapsuleCoupling::interpolation() {
   force_ready_ = false;
   if (distributed()) distributed_interpolation(step);
   else interpolate_velocities(step);
-  boxes_.clear();
+  for (NodeBoxes& b : boxes_) b.clear();  // their arrays are kept: a step's boxes fill them again
 }
 
 void CapsuleCoupling::motion(const fluid::StepStats& flow, double flow_seconds) {

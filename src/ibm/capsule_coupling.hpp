@@ -327,6 +327,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   CellVector force_;
   fluid::FaceField<3> face_force_;
   bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled
+  bool force_zero_ = false, face_force_zero_ = false;  // known to hold zeros only (zero_unspread_forces)
   SpreadWorkspace workspace_;
   // This step's stencil boxes (node_boxes.hpp): per capsule on one rank, per routed range on
   // N ranks; found once the stage positions are known, cleared at the step's end.

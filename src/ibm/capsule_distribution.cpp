@@ -216,6 +216,7 @@ void CapsuleCoupling::distributed_spreading(int step) {
   });
   // The ghosts' faces hold their owners' sums (the flow's face loops read them).
   ns_.tree().update_ghosts(fluid::components<3>(face_force_));
+  face_force_zero_ = false;  // the ghosts now hold their owners' sums
   force_ready_ = true;
   times_.spreading += seconds_since(t0);
   if (scheme_ == NodeScheme::midpoint) {  // J(X*) u^n, as predict_midpoint on one rank
