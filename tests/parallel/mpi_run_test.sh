@@ -97,23 +97,9 @@ echo "checkpoint of 2 ranks restarted on 3: same final cells"
 # A checkpoint of format version 2 (its checksums chain through the bytes: every rank reads
 # it whole) restarts on 2 ranks as on one (tests/app/data, the small cavity of
 # tests/app/small_cavity.hpp, carried faces).
-cat > "$dir/small_cavity.toml" <<'TOML'
-name = "c"
-dimension = 2
-[domain]
-roots = [1, 1]
-[fluid.boundary]
-x_lo = { type = "wall" }
-x_hi = { type = "wall" }
-y_lo = { type = "wall" }
-y_hi = { type = "moving_wall", velocity = [1.0, 0.0] }
-[adapt]
-min_level = 3
-max_level = 4
-[time]
-dt = 0.01
-t_end = 0.02
-TOML
+# The case's text is the raw string of small_cavity.hpp.
+sed -n '/R"(/,/^)"/{ s/.*R"(//; /^)"/d; p; }' "$(dirname "$0")/../app/small_cavity.hpp" > "$dir/small_cavity.toml"
+grep -q '^max_level = 4' "$dir/small_cavity.toml" || fail "could not read the small cavity case from small_cavity.hpp"
 v2=(run "$dir/small_cavity.toml" --quiet --set fluid.carry_faces=true --set output.vtu=false
     --restart "$(dirname "$0")/../app/data/checkpoint_v2_small_cavity.h5")
 "$capsflow" "${v2[@]}" --out "$dir/v2.1" || fail "version-2 checkpoint on one rank: exit $?"
