@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <unistd.h>
+
 #include <bit>
 #include <cmath>
 #include <filesystem>
@@ -44,10 +46,31 @@ double value_of(int field, int level, tree::Key key) {
   return (field == 0 ? 1.0 : -7.0) * std::sin(1e-3 * static_cast<double>(key) + level) / 3.0;
 }
 
+// This launch's scratch folder (rank 0's process id: launches on other rank counts may run
+// at the same time), removed by rank 0 when the tests end.
+const std::filesystem::path& scratch_dir() {
+  struct Dir {
+    std::filesystem::path path;
+    bool owner = false;
+    ~Dir() {
+      std::error_code ec;
+      if (owner) std::filesystem::remove_all(path, ec);
+    }
+  };
+  static const Dir dir = [] {
+    const parallel::Comm comm = parallel::Comm::world();
+    long id = static_cast<long>(::getpid());
+    if (comm.distributed()) MPI_Bcast(&id, 1, MPI_LONG, 0, comm.handle());
+    return Dir{std::filesystem::temp_directory_path() / ("capsflow_checkpoint_mpi_test." + std::to_string(id)),
+               comm.is_root()};
+  }();
+  return dir.path;
+}
+
 // The same file on every rank: rank 0 writes it (one rank's writer), every rank waits.
 std::filesystem::path shared_file(const std::string& name) {
   const parallel::Comm comm = parallel::Comm::world();
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "capsflow_checkpoint_mpi_test";
+  const std::filesystem::path& dir = scratch_dir();
   if (comm.is_root()) {
     std::filesystem::create_directories(dir);
     tree::Tree<3> t = tree::testing::uneven_tree(channel());
