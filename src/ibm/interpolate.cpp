@@ -122,31 +122,24 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
   for (Eigen::Index i = 0; i < n; ++i) {
     const NodeBoxes::Interpolator who = boxes ? boxes->interpolator(i) : NodeBoxes::Interpolator::parts;
     if (who == NodeBoxes::Interpolator::elsewhere) continue;
-    if (who == NodeBoxes::Interpolator::here) {  // every cell held here: the whole sums
-      for (int d = 0; d < 3; ++d) {
-        const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), d);
-        Index c[kMaxCells];
-        if (!boxes->held_stencil_cells(i, st, c))
-          require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName);
-        double values[kMaxCells];
-        for (int s = 0; s < st.size(); ++s) values[s] = uf[d][c[s]];
-        const auto k = static_cast<std::size_t>(3 * i + d);
-        out.kind[k] = PartialVelocities::kSum;
-        out.sum[k] = box_sum(st, values);
-      }
-      continue;
-    }
+    // Interpolated here: every cell of the stencil is held (owned or ghost), so each sum is
+    // whole; else this rank's own cells.
+    const bool here = who == NodeBoxes::Interpolator::here;
     for (int d = 0; d < 3; ++d) {
       const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), d);
       Index c[kMaxCells];
-      if (!(boxes && boxes->stencil_cells(i, st, c)))
+      if (here) {
+        if (!boxes->held_stencil_cells(i, st, c))
+          require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName);
+      } else if (!(boxes && boxes->stencil_cells(i, st, c))) {
         require_box(t, level, st.first, st.n, c, i, &x(0, i), "face interpolation", K::kName, own);
+      }
       const double* u = uf[d].data();
       const auto k = static_cast<std::size_t>(3 * i + d);
-      int owned = 0;
-      for (int s = 0; s < st.size(); ++s) owned += c[s] != tree::kNone;
-      if (owned == 0) continue;
-      if (owned == st.size()) {  // the whole sum here, in box_sum's order
+      int present = 0;  // cells of the stencil found here
+      for (int s = 0; s < st.size(); ++s) present += c[s] != tree::kNone;
+      if (present == 0) continue;
+      if (present == st.size()) {  // the whole sum here, in box_sum's order
         double values[kMaxCells];
         for (int s = 0; s < st.size(); ++s) values[s] = u[c[s]];
         out.kind[k] = PartialVelocities::kSum;
@@ -155,7 +148,7 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
       }
       out.kind[k] = PartialVelocities::kSlots;
       out.offset[k] = static_cast<std::uint32_t>(out.values.size());
-      out.count[k] = static_cast<std::uint32_t>(owned);
+      out.count[k] = static_cast<std::uint32_t>(present);
       for (int s = 0; s < st.size(); ++s)
         if (c[s] != tree::kNone) {
           out.slots.push_back(static_cast<std::uint16_t>(s));

@@ -212,6 +212,16 @@ hsize_t value_limit(hid_t loc, hid_t type_id) {
   return file_bytes(loc) / std::max<std::size_t>(bytes, 1);
 }
 
+// The dataset `name` of loc, opened; `path` names it in messages.
+Handle open_dataset(const H5Io& io, hid_t loc, const std::string& name, const std::string& path) {
+  if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) io.fail(fmt::format("missing dataset {}", path));
+  Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!set.valid())
+    io.fail(fmt::format("{} is not a readable dataset{}", path,
+                        error_stack_mentions_checksum() ? " (checksum mismatch: the file is corrupt)" : ""));
+  return set;
+}
+
 bool has_fletcher32(hid_t set) {
   const Handle dcpl(H5Dget_create_plist(set), H5Pclose);
   unsigned flags = 0;
@@ -230,11 +240,7 @@ bool is_compact(hid_t set) {
 
 template <class T>
 Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::string& path) const {
-  if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
-  const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
-  if (!set.valid())
-    fail(fmt::format("{} is not a readable dataset{}", path,
-                     error_stack_mentions_checksum() ? " (checksum mismatch: the file is corrupt)" : ""));
+  const Handle set = open_dataset(*this, loc, name, path);
   Array<T> a;
   if (!sized_from(H5Dget_space(set.get()), a, value_limit(loc, H5Dget_type(set.get()))))
     fail(fmt::format("{}: unreadable shape, or more values than the file holds (corrupt?)", path));
@@ -259,10 +265,9 @@ Array<T> H5Io::read(hid_t loc, const std::string& name, hid_t type, const std::s
 }
 
 std::vector<hsize_t> H5Io::shape_of(hid_t loc, const std::string& name, const std::string& path) const {
-  if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
-  const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
+  const Handle set = open_dataset(*this, loc, name, path);
   Array<std::uint64_t> a;
-  if (!set.valid() || !sized_from(H5Dget_space(set.get()), a, value_limit(loc, H5Dget_type(set.get()))))
+  if (!sized_from(H5Dget_space(set.get()), a, value_limit(loc, H5Dget_type(set.get()))))
     fail(fmt::format("{}: unreadable shape, or more values than the file holds (corrupt?)", path));
   return a.shape;
 }
@@ -270,11 +275,7 @@ std::vector<hsize_t> H5Io::shape_of(hid_t loc, const std::string& name, const st
 template <class T>
 Rows<T> H5Io::read_rows(hid_t loc, const std::string& name, hid_t type, const std::string& path, RowRun rows) const {
   static_assert(sizeof(T) == 8, "checkpoint datasets hold 8-byte values");
-  if (H5Lexists(loc, name.c_str(), H5P_DEFAULT) <= 0) fail(fmt::format("missing dataset {}", path));
-  const Handle set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
-  if (!set.valid())
-    fail(fmt::format("{} is not a readable dataset{}", path,
-                     error_stack_mentions_checksum() ? " (checksum mismatch: the file is corrupt)" : ""));
+  const Handle set = open_dataset(*this, loc, name, path);
   Rows<T> out;
   const Handle file_space(H5Dget_space(set.get()), H5Sclose);
   const int dims = file_space.valid() ? H5Sget_simple_extent_ndims(file_space.get()) : -1;
