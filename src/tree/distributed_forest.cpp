@@ -197,16 +197,40 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
       i = j;
     }
   }
+  // The cells within `width` of the centres whose box leaves this rank's range: the box is
+  // the product of one interval per axis, so the union of the boxes is the centres dilated
+  // along one axis after the other, each time sorted and deduplicated (2 D w + D keys per
+  // centre instead of (2w + 1)^D: near the split most of a box's cells are a neighbour's).
+  // The centres themselves are in the union; one that is another rank's is then asked too.
+  std::vector<Key> near, dilated;
   for (int l = 0; l <= top; ++l) {
     auto& keys = centres[static_cast<std::size_t>(l)];
-    for (const Key k : keys) {
-      const Coords<D> c = morton_decode<D>(k);
-      if (const auto [lo, hi] = around(c, width, 1, 0); box_is_mine(l, lo, hi)) continue;
-      for_each_stencil_cell<D>(o, l, c, width, [&](const CurveCell& x) {
-        if (!mine(x.position)) asked.push_back(x);
-      });
-    }
+    near.clear();
+    for (const Key k : keys)
+      if (const auto [lo, hi] = around(morton_decode<D>(k), width, 1, 0); !box_is_mine(l, lo, hi)) near.push_back(k);
     std::vector<Key>().swap(keys);
+    for (int d = 0; d < D && !near.empty(); ++d) {
+      const std::int64_t extent = static_cast<std::int64_t>(o.roots[d]) << l;
+      dilated.clear();
+      for (const Key k : near) {
+        Coords<D> c = morton_decode<D>(k);
+        const std::int64_t centre = c[d];
+        for (int offset = -width; offset <= width; ++offset) {
+          std::int64_t v = centre + offset;
+          if (v < 0 || v >= extent) {
+            if (!o.periodic[d]) continue;  // beyond a wall: no cell
+            v = ((v % extent) + extent) % extent;
+          }
+          c[d] = static_cast<std::int32_t>(v);
+          dilated.push_back(morton_encode<D>(c));
+        }
+      }
+      radix_sort(dilated, [](Key k) { return k; });
+      dilated.erase(std::unique(dilated.begin(), dilated.end()), dilated.end());
+      near.swap(dilated);
+    }
+    for (const Key k : near)
+      if (const Key position = curve_position<D>(l, k, top); !mine(position)) asked.push_back({position, l});
   }
   sort_in_curve_order(asked);
   asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
