@@ -93,6 +93,21 @@ void box_owners(const Partition& partition, const TreeOptions<D>& options, int l
       v.box[d] = axis[d].range[rest % axis[d].count];
       rest /= axis[d].count;
     }
+    // Morton keys grow with each coordinate, so the part's cells lie on the curve between
+    // its lowest corner's first position and its highest corner's last: one owner of both
+    // owns it all (most membrane nodes' boxes), with no descent.
+    Coords<D> c0{}, c1{};
+    for (int d = 0; d < D; ++d) {
+      c0[d] = static_cast<std::int32_t>(v.box[d][0]);
+      c1[d] = static_cast<std::int32_t>(v.box[d][1]);
+    }
+    const int low = partition.owner(curve_position<D>(level, morton_encode<D>(c0), options.max_level));
+    const int high = partition.owner(curve_position<D>(level, morton_encode<D>(c1), options.max_level) +
+                                     span_of<D>(level, options.max_level) - 1);
+    if (low == high) {
+      ranks.push_back(low);
+      continue;
+    }
     // The roots the part touches, then down their blocks.
     Coords<D> r0{}, r1{};
     for (int d = 0; d < D; ++d) {
