@@ -297,8 +297,11 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[nodiscard]] OwnedPositions owned_positions() const;
   // Every owned capsule's nodes at `at(c)` (with `with_forces` their forces) to the ranks
   // within `reach(k)` max-level cells; the result is what this rank received. Collective.
+  // Each owned capsule's nodes at `at` to the owners of the cells within reach(k) of them, or
+  // with `stencil_boxes` to the owners of their spreading and interpolation stencils' box
+  // (NodeBoxes): the ranks that spread into their own cells or interpolate, no others.
   [[nodiscard]] RoutedNodes route(const std::function<const Eigen::Matrix3Xd&(const Capsule&)>& at, bool with_forces,
-                                  const std::function<int(int)>& reach) const;
+                                  const std::function<int(int)>& reach, bool stencil_boxes = false) const;
   [[nodiscard]] int stencil_reach(int k) const;
   [[nodiscard]] int band(int k) const;
   void spread_routed(int step);

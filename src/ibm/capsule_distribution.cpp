@@ -1,5 +1,6 @@
 // The capsule coupling on N ranks (capsule_coupling.hpp, distribute()): ownership and its
 // migration, the routed stages of the step, and the reductions of its collective decisions.
+#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -123,11 +124,25 @@ int CapsuleCoupling::stencil_reach(int k) const {
 }
 
 RoutedNodes CapsuleCoupling::route(const std::function<const Eigen::Matrix3Xd&(const Capsule&)>& at, bool with_forces,
-                                   const std::function<int(int)>& reach) const {
-  std::vector<OutgoingNodes> out;
-  for (int k = 0; k < num_capsules(); ++k)
-    if (owns(k)) out.push_back({k, &at(capsule(k)), with_forces ? &capsule(k).forces : nullptr, reach(k)});
+                                   const std::function<int(int)>& reach, bool stencil_boxes) const {
   const tree::Tree<3>& t = ns_.tree();
+  const double h = t.cell_size(t.max_level());
+  std::vector<OutgoingNodes> out;
+  for (int k = 0; k < num_capsules(); ++k) {
+    if (!owns(k)) continue;
+    OutgoingNodes o{k, &at(capsule(k)), with_forces ? &capsule(k).forces : nullptr, reach(k), {}};
+    const KernelChoice& kc = kernels_[static_cast<std::size_t>(k)];
+    if (stencil_boxes && kc.staggered)
+      o.box = [&t, h, kc](const double* x, tree::Coords<3>& lo, tree::Coords<3>& hi) {
+        const std::array kinds{kc.spread, kc.interpolate};
+        const NodeBox b = node_box(t.options(), h, x, kinds, kc.divergence_free);
+        for (int d = 0; d < 3; ++d) {
+          lo[d] = b.first[d];
+          hi[d] = b.first[d] + b.widths[d] - 1;
+        }
+      };
+    out.push_back(std::move(o));
+  }
   return route_nodes(forest_->comm(), forest_->partition(), t.options(), t.max_level(), out);
 }
 
@@ -201,7 +216,7 @@ void CapsuleCoupling::distributed_forces(int step) {
 void CapsuleCoupling::distributed_spreading(int step) {
   auto t0 = Clock::now();
   routed_ = route([this](const Capsule& c) -> const Eigen::Matrix3Xd& { return stage_positions(c); }, true,
-                  [this](int k) { return stencil_reach(k); });
+                  [this](int k) { return stencil_reach(k); }, true);
   traffic_.words_sent += routed_.words_sent;
   traffic_.most_capsules_received = std::max<std::int64_t>(traffic_.most_capsules_received,
                                                            static_cast<std::int64_t>(routed_.ranges.size()));
@@ -217,6 +232,11 @@ void CapsuleCoupling::distributed_spreading(int step) {
   // The ghosts' faces hold their owners' sums (the flow's face loops read them).
   ns_.tree().update_ghosts(fluid::components<3>(face_force_));
   face_force_zero_ = false;  // the ghosts now hold their owners' sums
+  // A rank that spread nothing may still hold a neighbour's forces on its ghosts' faces (an
+  // owned cell's high face lies on the cell above it, which a node's stencil may reach while
+  // missing every owned cell): the flow reads the face forces wherever a capsule spreads on
+  // faces, on every rank alike.
+  any_faces_ = any_faces_ || std::any_of(kernels_.begin(), kernels_.end(), [](const KernelChoice& kc) { return kc.staggered; });
   force_ready_ = true;
   times_.spreading += seconds_since(t0);
   if (scheme_ == NodeScheme::midpoint) {  // J(X*) u^n, as predict_midpoint on one rank

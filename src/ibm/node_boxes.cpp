@@ -9,6 +9,26 @@
 
 namespace capsflow::ibm {
 
+NodeBox node_box(const tree::TreeOptions<3>& o, double h, const double* x, std::span<const KernelKind> kinds,
+                 bool divergence_free) {
+  tree::Coords<3> lo{}, hi{};
+  lo.fill(std::numeric_limits<std::int32_t>::max());
+  hi.fill(std::numeric_limits<std::int32_t>::min());
+  for (const KernelKind kind : kinds)
+    with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) {
+      for (int axis = 0; axis < 3; ++axis) {
+        const BoxStencil st = face_stencil_bounds<K>(o, h, x, axis);
+        for (int d = 0; d < 3; ++d) {
+          lo[d] = std::min(lo[d], st.first[d]);
+          hi[d] = std::max(hi[d], st.first[d] + st.n[d]);
+        }
+      }
+    });
+  NodeBox b{.first = lo, .widths = {}};
+  for (int d = 0; d < 3; ++d) b.widths[d] = hi[d] - lo[d];
+  return b;
+}
+
 void NodeBoxes::find(const tree::Tree<3>& t, Eigen::Ref<const Eigen::Matrix3Xd> x, std::span<const KernelKind> kinds,
                      bool divergence_free, const OwnedPositions& own) {
   const Eigen::Index n = x.cols();
@@ -30,22 +50,8 @@ void NodeBoxes::find(const tree::Tree<3>& t, Eigen::Ref<const Eigen::Matrix3Xd> 
   if (!own.all()) held_cells_.resize(cells_.size());
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (Eigen::Index i = 0; i < n; ++i) {
-    tree::Coords<3> lo{}, hi{};
-    lo.fill(std::numeric_limits<std::int32_t>::max());
-    hi.fill(std::numeric_limits<std::int32_t>::min());
-    for (const KernelKind kind : kinds)
-      with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) {
-        for (int axis = 0; axis < 3; ++axis) {
-          const BoxStencil st = face_stencil_bounds<K>(o, h, x.col(i).data(), axis);
-          for (int d = 0; d < 3; ++d) {
-            lo[d] = std::min(lo[d], st.first[d]);
-            hi[d] = std::max(hi[d], st.first[d] + st.n[d]);
-          }
-        }
-      });
+    const auto [lo, w] = node_box(o, h, x.col(i).data(), kinds, divergence_free);
     const auto u = static_cast<std::size_t>(i);
-    std::array<int, 3> w{};
-    for (int d = 0; d < 3; ++d) w[d] = hi[d] - lo[d];
     CAPSFLOW_ASSERT(w[0] <= widest && w[1] <= widest && w[2] <= widest, "ibm: a node's stencils span more than its box");
     first_[u] = lo;
     widths_[u] = w;

@@ -28,6 +28,16 @@
 
 namespace capsflow::ibm {
 
+// The box of max-level cells covering the three face stencils of every kernel in `kinds`
+// (divergence-free or not) of the node at x: its lowest cell and widths (unwrapped across
+// periodic sides). NodeBoxes finds these boxes; the routing sends a node to their owners.
+struct NodeBox {
+  tree::Coords<3> first{};
+  std::array<int, 3> widths{};
+};
+[[nodiscard]] NodeBox node_box(const tree::TreeOptions<3>& o, double h, const double* x,
+                               std::span<const KernelKind> kinds, bool divergence_free);
+
 class NodeBoxes {
  public:
   // For each node of x, the box covering the three face stencils of every kernel in `kinds`

@@ -72,11 +72,15 @@ RoutedNodes route_nodes(const parallel::Comm& comm, const tree::Partition& parti
       continue;
     }
     for (Eigen::Index i = 0; i < n; ++i) {
-      const tree::Coords<3> c = cell_of(options, h, &(*o.x)(0, i));
       tree::Coords<3> a{}, b{};
-      for (int d = 0; d < 3; ++d) {
-        a[d] = c[d] - o.reach;
-        b[d] = c[d] + o.reach;
+      if (o.box) {
+        o.box(&(*o.x)(0, i), a, b);
+      } else {
+        const tree::Coords<3> c = cell_of(options, h, &(*o.x)(0, i));
+        for (int d = 0; d < 3; ++d) {
+          a[d] = c[d] - o.reach;
+          b[d] = c[d] + o.reach;
+        }
       }
       ranks.clear();
       tree::box_owners<3>(partition, options, level, a, b, ranks);

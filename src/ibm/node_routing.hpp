@@ -10,6 +10,7 @@
 // A rank's received nodes come sorted by (capsule, node): every rank spreads them into its
 // cells in that order, the order one rank uses, so each face's sum is one rank's to the bit.
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -28,6 +29,9 @@ struct OutgoingNodes {
   const Eigen::Matrix3Xd* x = nullptr;
   const Eigen::Matrix3Xd* f = nullptr;  // nullptr: zeros (a routing for positions only)
   int reach = 0;  // half-width of the box, in max-level cells, around the cell holding a node
+  // The box (inclusive, in max-level cells) of the cells a node's stencils read, inside the
+  // reach above; empty: the whole reach. A node then goes to the owners of its box's cells.
+  std::function<void(const double* x, tree::Coords<3>& lo, tree::Coords<3>& hi)> box;
 };
 
 struct RoutedNodes {
