@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -87,11 +88,17 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
         bad = std::min(bad, i);
         continue;
       }
+      // The node's range of cells, in locals (stores through ws inside the loop kept the
+      // compiler from holding them in registers: a third of the pass).
+      Index lowest = std::numeric_limits<Index>::max(), highest = -1;
       for (int s = 0; s < cells_per_node; ++s) {  // kNone: another rank's cell
         if (c[s] == tree::kNone) continue;
-        if (ws.lowest[i] > ws.highest[i]) ws.lowest[i] = ws.highest[i] = c[s];
-        ws.lowest[i] = std::min(ws.lowest[i], c[s]);
-        ws.highest[i] = std::max(ws.highest[i], c[s]);
+        lowest = std::min(lowest, c[s]);
+        highest = std::max(highest, c[s]);
+      }
+      if (highest >= 0) {
+        ws.lowest[i] = lowest;
+        ws.highest[i] = highest;
       }
     }
     // (implicit barrier: the stencils are complete, bad is reduced)
