@@ -32,23 +32,37 @@ bool all_finite(const Eigen::Matrix3Xd& m, Eigen::Index& first_bad) {
   return true;
 }
 
-// On cell centres, or (staggered) on the faces of each component.
-bool node_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x, bool staggered,
-                         bool divergence_free) {
-  return with_face_kernel(kind, staggered && divergence_free, [&]<Kernel K>(K) {
+// Whether this rank's cells of every face stencil of both kernels of the node at x exist
+// (own: every cell on one rank). One search of the stencils' common box settles most nodes:
+// its owned cells include every stencil's; only a box that fails (a missing corner cell the
+// stencils may not read, a wall) is searched stencil by stencil.
+bool face_stencils_exist(const tree::Tree<3>& t, const KernelChoice& kc, const double* x, const OwnedPositions& own) {
+  const int level = t.max_level();
+  const double h = t.cell_size(level);
+  const std::array kinds{kc.spread, kc.interpolate};
+  Index cells[kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth];
+  const NodeBox b = node_box(t.options(), h, x, kinds, kc.divergence_free);
+  if (find_owned_box(t, level, b.first, b.widths, own, cells) < 0) return true;
+  bool exist = true;
+  for (const KernelKind kind : kinds)
+    with_face_kernel(kind, kc.divergence_free, [&]<Kernel K>(K) {
+      for (int axis = 0; exist && axis < 3; ++axis) {
+        const BoxStencil st = face_stencil_bounds<K>(t.options(), h, x, axis);
+        exist = find_owned_box(t, level, st.first, st.n, own, cells) < 0;
+      }
+    });
+  return exist;
+}
+
+// The cell-centred coupling's stencils (one rank only).
+bool cell_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x) {
+  return with_kernel(kind, [&]<Kernel K>(K) {
     const int level = t.max_level();
     const double h = t.cell_size(level);
     Index cells[kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth];
     for (Eigen::Index i = 0; i < x.cols(); ++i) {
-      if (staggered) {
-        for (int axis = 0; axis < 3; ++axis) {
-          const BoxStencil st = face_stencil<K>(t.options(), h, &x(0, i), axis);
-          if (find_box(t, level, st.first, st.n, cells) >= 0) return false;
-        }
-      } else if constexpr (!kIsDivergenceFree<K>) {
-        const auto st = node_stencil<K>(t.options(), h, &x(0, i));
-        if (find_patch<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first}, cells) >= 0) return false;
-      }
+      const auto st = node_stencil<K>(t.options(), h, &x(0, i));
+      if (find_patch<K::kSupport>(t, level, {st[0].first, st[1].first, st[2].first}, cells) >= 0) return false;
     }
     return true;
   });
@@ -201,28 +215,21 @@ bool CapsuleCoupling::stencils_ready() const {
   if (!distributed())
     return std::all_of(capsules_.begin(), capsules_.end(), [&](const auto& p) {
       const Capsule& c = *p;
-      const bool df = c.kernels.divergence_free;
-      return node_stencils_exist(t, c.kernels.spread, c.x, c.kernels.staggered, df) &&
-             node_stencils_exist(t, c.kernels.interpolate, c.x, c.kernels.staggered, df);
+      if (c.kernels.staggered) {
+        for (Eigen::Index i = 0; i < c.x.cols(); ++i)
+          if (!face_stencils_exist(t, c.kernels, &c.x(0, i), {})) return false;
+        return true;
+      }
+      return cell_stencils_exist(t, c.kernels.spread, c.x) && cell_stencils_exist(t, c.kernels.interpolate, c.x);
     });
   // Each rank checks the stencil cells it owns of the nodes that reach it.
   const RoutedNodes nodes = route([](const Capsule& c) -> const Eigen::Matrix3Xd& { return c.x; }, false,
-                                  [this](int k) { return stencil_reach(k); });
+                                  [this](int k) { return stencil_reach(k); }, true);
   const OwnedPositions own = owned_positions();
-  const int level = t.max_level();
-  const double h = t.cell_size(level);
   bool ready = true;
-  Index cells[kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth];
   for (const RoutedNodes::Range& range : nodes.ranges) {
     const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
-    for (const KernelKind kind : {kc.spread, kc.interpolate})
-      with_face_kernel(kind, kc.divergence_free, [&]<Kernel K>(K) {
-        for (Eigen::Index i = range.begin; ready && i < range.end; ++i)
-          for (int axis = 0; axis < 3; ++axis) {
-            const BoxStencil st = face_stencil<K>(t.options(), h, &nodes.x(0, i), axis);
-            if (find_owned_box(t, level, st.first, st.n, own, cells) >= 0) ready = false;
-          }
-      });
+    for (Eigen::Index i = range.begin; ready && i < range.end; ++i) ready = face_stencils_exist(t, kc, &nodes.x(0, i), own);
   }
   return !any_rank(!ready);
 }
