@@ -412,7 +412,6 @@ void CapsuleCoupling::find_boxes(std::size_t count,
                                  const std::function<Eigen::Ref<const Eigen::Matrix3Xd>(std::size_t)>& x_of,
                                  const std::function<const KernelChoice&(std::size_t)>& kernels_of,
                                  const OwnedPositions& own) {
-  const auto t0 = Clock::now();
   boxes_.resize(count);
   for (std::size_t i = 0; i < count; ++i) {
     const KernelChoice& kc = kernels_of(i);
@@ -423,7 +422,6 @@ void CapsuleCoupling::find_boxes(std::size_t count,
     const std::array kinds{kc.spread, kc.interpolate};
     boxes_[i].find(ns_.tree(), x_of(i), kinds, kc.divergence_free, own);
   }
-  times_.spreading += seconds_since(t0);
 }
 
 void CapsuleCoupling::predict_midpoint(int step) {
@@ -462,9 +460,11 @@ void CapsuleCoupling::spreading() {
     distributed_spreading(step);
     return;
   }
+  const auto t0 = Clock::now();
   find_boxes(capsules_.size(),
              [this](std::size_t k) -> Eigen::Ref<const Eigen::Matrix3Xd> { return stage_positions(capsule(static_cast<int>(k))); },
              [this](std::size_t k) -> const KernelChoice& { return kernels_[k]; }, {});
+  times_.spreading += seconds_since(t0);  // (on N ranks distributed_spreading times its call)
   spread_forces(step);
   if (scheme_ == NodeScheme::midpoint) predict_midpoint(step);  // J(X*) u^n, before the flow changes u
 }
