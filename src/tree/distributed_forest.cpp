@@ -688,6 +688,10 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
   sort_in_curve_order(old_leaves, [](const auto& x) -> const CurveCell& { return x.first; });
   std::vector<CurveCell> cells;
   std::vector<double> values;
+  cells.reserve(old_leaves.size());
+  values.reserve(old_leaves.size() * static_cast<std::size_t>(fields));
+  std::vector<const double*> field;
+  for (int f = 0; f < fields; ++f) field.push_back(t.values(f).data());
   AdaptCounts counts;
   double children[C];
   for (const auto& [cell, c] : old_leaves) {
@@ -719,7 +723,7 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
       }
     } else {
       cells.push_back(cell);
-      for (int f = 0; f < fields; ++f) values.push_back(t.values(f)[static_cast<std::size_t>(c)]);
+      for (int f = 0; f < fields; ++f) values.push_back(field[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)]);
     }
   }
 
@@ -763,7 +767,10 @@ void DistributedForest<D>::repartition(Tree<D>& t, std::span<const CurveCell> le
     for (int f = 0; f < fields; ++f)
       t.values(f)[static_cast<std::size_t>(c)] = moved.values[i * static_cast<std::size_t>(fields) + static_cast<std::size_t>(f)];
   }
-  for (int f = 0; f < fields; ++f) t.update_ghosts(t.values(f));
+  // Every field's ghosts in one exchange (one message per peer, not one per field).
+  std::vector<std::span<double>> all;
+  for (int f = 0; f < fields; ++f) all.push_back(t.values(f));
+  t.update_ghosts(all);
 }
 
 template <int D>
