@@ -295,11 +295,10 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   void migrate();  // owned capsules whose centroid left this rank's cells go to its owner
   [[nodiscard]] int owner_of(const Eigen::Matrix3Xd& x) const;
   [[nodiscard]] OwnedPositions owned_positions() const;
-  // Every owned capsule's nodes at `at(c)` (with `with_forces` their forces) to the ranks
-  // within `reach(k)` max-level cells; the result is what this rank received. Collective.
-  // Each owned capsule's nodes at `at` to the owners of the cells within reach(k) of them, or
-  // with `stencil_boxes` to the owners of their spreading and interpolation stencils' box
-  // (NodeBoxes): the ranks that spread into their own cells or interpolate, no others.
+  // Every owned capsule's nodes at `at(c)` (with `with_forces` their forces) to the owners of
+  // the cells within `reach(k)` max-level cells of them, or with `stencil_boxes` of their
+  // spreading and interpolation stencils' box (NodeBoxes: the ranks that spread into their
+  // own cells or interpolate, no others); the result is what this rank received. Collective.
   [[nodiscard]] RoutedNodes route(const std::function<const Eigen::Matrix3Xd&(const Capsule&)>& at, bool with_forces,
                                   const std::function<int(int)>& reach, bool stencil_boxes = false) const;
   [[nodiscard]] int stencil_reach(int k) const;
@@ -329,7 +328,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   Traffic traffic_;
   CellVector force_;
   fluid::FaceField<3> face_force_;
-  bool any_cells_ = false, any_faces_ = false;  // which of the two the last spreading filled
+  // Which of the two the last spreading filled, so the flow reads it (on N ranks the face
+  // force on every rank wherever a capsule spreads on faces: ghosts hold neighbours' sums).
+  bool any_cells_ = false, any_faces_ = false;
   bool force_zero_ = false, face_force_zero_ = false;  // known to hold zeros only (zero_unspread_forces)
   SpreadWorkspace workspace_;
   // This step's stencil boxes (node_boxes.hpp): per capsule on one rank, per routed range on

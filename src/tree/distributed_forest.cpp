@@ -690,7 +690,7 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
   std::vector<double> values;
   cells.reserve(old_leaves.size());
   values.reserve(old_leaves.size() * static_cast<std::size_t>(fields));
-  std::vector<const double*> field;
+  std::vector<const double*> field;  // every field's values, taken once (not per leaf)
   for (int f = 0; f < fields; ++f) field.push_back(t.values(f).data());
   AdaptCounts counts;
   double children[C];
@@ -716,7 +716,7 @@ AdaptCounts DistributedForest<D>::adapt(Tree<D>& t, int min_level) {
       ++counts.coarsened;
       cells.push_back({cell.position, l - 1});
       for (int f = 0; f < fields; ++f) {
-        const std::span<const double> v = t.values(f);
+        const double* v = field[static_cast<std::size_t>(f)];
         double sum = 0.0;
         for (int k = 0; k < C; ++k) sum += v[static_cast<std::size_t>(fc + k)];
         values.push_back(t.field_spec(f).prolongation == Prolongation::none ? 0.0 : sum * (1.0 / C));
