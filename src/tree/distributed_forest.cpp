@@ -161,13 +161,18 @@ void DistributedForest<D>::plan(const Partition& partition, std::span<const Curv
     // has the 2^D parents P + o with o_d in {-1, 0} where b's bit d is 0, {0, 1} where it is
     // 1. A run of siblings away from the sides pushes the union once (at most 3^D keys, not
     // 2^D per child: the sort below was most of a large plan's time).
+    // A parent whose 3^D block is all this rank's pushes itself alone: every cell of the
+    // block exists (2:1 balance around its children) and is this rank's, so it is a centre
+    // already (each existing owned cell is: its first child is one, from the finest level up).
     constexpr int kBlock = ipow(3, D);
     for (std::size_t i = 0; i < keys.size();) {
       const Key parent = keys[i] >> D;
       std::size_t j = i;
       bool all_inside = true;
       for (; j < keys.size() && (keys[j] >> D) == parent; ++j) all_inside = all_inside && inside(morton_decode<D>(keys[j]));
-      if (all_inside) {
+      if (const auto [lo, hi] = around(morton_decode<D>(parent), 1, 1, 0); box_is_mine(l - 1, lo, hi)) {
+        parents.push_back(parent);
+      } else if (all_inside) {
         std::array<bool, kBlock> covered{};
         for (std::size_t r = i; r < j; ++r) {
           const auto b = static_cast<unsigned>(keys[r] & (Key{kChildren<D>} - 1));
