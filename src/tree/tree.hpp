@@ -424,6 +424,10 @@ class Tree {
   // Repeats adapt() with only forced refinement until nothing changes (initial meshes).
   AdaptCounts refine_to(const std::function<int(const Box<D>&)>& required_level,
                         int max_passes = 64);
+  // A tree without fields of depth 0 becomes, in one rebuild, the tree whose level-l parents
+  // are the cells with the keys split[l] (sorted, each a child of a level-(l-1) parent; the
+  // caller balances them: tree_refined_to).
+  void split_cells(std::span<const std::vector<Key>> split);
 
   // Bytes held by the topology (keys, neighbour tables, children, halo and boundary data,
   // leaf list), without fields and without rebuild scratch.
@@ -434,6 +438,10 @@ class Tree {
   // Builds the next tree into scratch_ from the current one and the decision, per current
   // cell, whether it has children in the next tree; carries fields; swaps.
   void rebuild(const std::vector<std::uint8_t>& refined_next);
+  // rebuild() with the decision refined(level, the next tree's level, i) for the next tree's
+  // active cell i (in_parallel: over threads).
+  template <class Refined>
+  void rebuild_deciding(Refined refined, bool in_parallel);
   void build_children(int l, std::vector<Level<D>>& next) const;
   void finish_boundary_cells(Level<D>& lv, int l) const;
   void transfer_fields(const std::vector<Level<D>>& next, int new_depth, Index cells);

@@ -369,18 +369,53 @@ void Tree<D>::build_children(int l, std::vector<Level<D>>& next) const {
 
 template <int D>
 void Tree<D>::rebuild(const std::vector<std::uint8_t>& refined_next) {
+  rebuild_deciding(
+      [&](int, const Level<D>& cur, Index i) {
+        const Index o = cur.old_index[i];
+        return o != kNone && refined_next[o] != 0;
+      },
+      true);
+}
+
+template <int D>
+void Tree<D>::split_cells(std::span<const std::vector<Key>> split) {
+  if (depth_ != 0 || !fields_.empty()) throw std::logic_error("Tree::split_cells: a tree of depth 0 without fields expected");
+  // A level's cells come in key order (children follow their parents, the roots their
+  // Morton keys), so one cursor per level walks its split keys.
+  std::vector<std::size_t> cursor(split.size(), 0);
+  rebuild_deciding([&](int l, const Level<D>& cur, Index i) {
+    if (static_cast<std::size_t>(l) >= split.size()) return false;
+    const std::vector<Key>& keys = split[static_cast<std::size_t>(l)];
+    std::size_t& at = cursor[static_cast<std::size_t>(l)];
+    const Key k = cur.keys[static_cast<std::size_t>(i)];
+    if (at > 0 && keys[at - 1] >= k) at = static_cast<std::size_t>(std::lower_bound(keys.begin(), keys.end(), k) - keys.begin());
+    while (at < keys.size() && keys[at] < k) ++at;
+    return at < keys.size() && keys[at] == k;
+  }, false);  // the cursors are serial
+}
+
+template <int D>
+template <class Refined>
+void Tree<D>::rebuild_deciding(Refined refined, bool in_parallel) {
   auto& next = scratch_;
   build_level0(next[0], true);
   int l = 0;
   for (;; ++l) {
     Level<D>& cur = next[l];
     Index parents = 0;
+    if (in_parallel) {
 #pragma omp parallel for schedule(static) reduction(+ : parents) if (cur.n_active > kParallelMin)
-    for (Index i = 0; i < cur.n_active; ++i) {
-      const Index o = cur.old_index[i];
-      const bool refined = o != kNone && refined_next[o];
-      cur.leaf[i] = !refined;
-      parents += refined;
+      for (Index i = 0; i < cur.n_active; ++i) {
+        const bool r = refined(l, cur, i);
+        cur.leaf[i] = !r;
+        parents += r;
+      }
+    } else {
+      for (Index i = 0; i < cur.n_active; ++i) {
+        const bool r = refined(l, cur, i);
+        cur.leaf[i] = !r;
+        parents += r;
+      }
     }
     if (parents == 0) break;
     if (l == options_.max_level)

@@ -1,8 +1,11 @@
 #include "tree/tree_from_cells.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <vector>
+
+#include "tree/radix_sort.hpp"
 
 namespace capsflow::tree {
 
@@ -10,46 +13,40 @@ template <int D>
 Tree<D> tree_refined_to(const TreeOptions<D>& o, std::span<const CurveCell> cells) {
   CAPSFLOW_ASSERT(std::is_sorted(cells.begin(), cells.end(), curve_less), "tree_refined_to: cells not in curve order");
   const int top = o.max_level;
-  Tree<D> t(o);
-  // Split every leaf that starts a given cell deeper than itself, until none does; each
-  // pass goes one level down, the balance comes with apply_flags.
-  std::vector<std::int8_t> flags;
-  for (int pass = 0; pass <= top; ++pass) {
-    flags.assign(static_cast<std::size_t>(t.num_cells()), 0);
-    bool any = false;
-    // A level's cells come in key order, so the first given cell at or after each leaf only
-    // moves forward: a galloping search from the previous one (a binary search over all
-    // cells per leaf and pass was a twentieth of a rank's time on the seed case).
-    for (int l = 0; l <= t.depth(); ++l) {
-      const Level<D>& lv = t.level(l);
-      auto it = cells.begin();
-      Key previous = 0;
-      for (Index i = 0; i < lv.n_active; ++i) {
-        if (!lv.leaf[static_cast<std::size_t>(i)]) continue;
-        const Key begin = curve_position<D>(l, lv.keys[static_cast<std::size_t>(i)], top);
-        const Key end = begin + span_of<D>(l, top);
-        const CurveCell first{begin, 0};
-        if (begin < previous) it = cells.begin();  // not in key order after all: search from the start
-        previous = begin;
-        std::size_t step = 1;
-        auto low = it;
-        while (it != cells.end() && curve_less(*it, first)) {
-          low = it;
-          it += static_cast<std::ptrdiff_t>(std::min<std::size_t>(step, static_cast<std::size_t>(cells.end() - it)));
-          step *= 2;
-        }
-        it = std::lower_bound(low, it, first, curve_less);
-        for (auto x = it; x != cells.end() && x->position < end; ++x)
-          if (x->level > l) {
-            flags[static_cast<std::size_t>(lv.base + i)] = 1;
-            any = true;
-            break;
+  // The parents of each level, from the finest up: the parents of the given cells of the
+  // level below, and (2:1 balance: every cell next to a parent exists) the parents of the
+  // 3^D block around each parent of the level below. A child with bit b_d along axis d has
+  // its block's parents at offsets {b_d - 1, b_d} from its own parent along d. One rebuild
+  // then makes the tree (the passes of "split every leaf that starts a deeper given cell"
+  // it replaces rebuilt the whole tree once per level).
+  std::vector<std::vector<Key>> split(static_cast<std::size_t>(top) + 1);
+  for (const CurveCell& c : cells)
+    if (c.level > 0) split[static_cast<std::size_t>(c.level) - 1].push_back(key_of<D>(c, top) >> D);
+  for (int l = top - 1; l >= 0; --l) {
+    auto& parents = split[static_cast<std::size_t>(l)];
+    std::array<std::int64_t, D> extent{};
+    for (int d = 0; d < D; ++d) extent[d] = static_cast<std::int64_t>(o.roots[d]) << l;
+    for (const Key k : split[static_cast<std::size_t>(l) + 1]) {
+      const Coords<D> c = morton_decode<D>(k);
+      for (unsigned corner = 0; corner < kChildren<D>; ++corner) {
+        Coords<D> p{};
+        bool inside = true;
+        for (int d = 0; d < D; ++d) {
+          std::int64_t v = (c[d] >> 1) + (c[d] & 1) - 1 + static_cast<std::int64_t>((corner >> d) & 1u);
+          if (v < 0 || v >= extent[d]) {
+            if (!o.periodic[d]) inside = false;  // beyond a wall: no cell
+            v = ((v % extent[d]) + extent[d]) % extent[d];
           }
+          p[d] = static_cast<std::int32_t>(v);
+        }
+        if (inside) parents.push_back(morton_encode<D>(p));
       }
     }
-    if (!any) break;
-    (void)t.apply_flags(flags);
+    radix_sort(parents, [](Key k) { return k; });
+    parents.erase(std::unique(parents.begin(), parents.end()), parents.end());
   }
+  Tree<D> t(o);
+  t.split_cells(split);
   return t;
 }
 
