@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "tree/tree.hpp"
@@ -83,10 +84,22 @@ void Tree<D>::collect_held_halos() {
   for (int l = 0; l <= depth_; ++l) read[static_cast<std::size_t>(l)].assign(static_cast<std::size_t>(levels_[l].n_halo / C), 0);
   auto mark_block = [&](int l, Index cell) {
     const Level<D>& lv = levels_[l];
-    for (int s = 0; s < kStencil<D>; ++s) {
-      const Index n = lv.neighbor(cell, s);
-      if (n >= lv.halo_begin() && n < lv.halo_end()) read[static_cast<std::size_t>(l)][static_cast<std::size_t>((n - lv.halo_begin()) / C)] = 1;
-    }
+    // The rows as arrays, and one test of the whole block first: most blocks hold no halo
+    // cell (this was the most of the attach after an adaptation).
+    const std::size_t r = Level<D>::row_of(cell - lv.base);
+    const Index* face = lv.face.data() + r * kFaces<D>;
+    const Index* diag = lv.diag.data() + r * kDiagonals<D>;
+    const auto halo_begin = static_cast<std::uint32_t>(lv.halo_begin()), n_halo = static_cast<std::uint32_t>(lv.n_halo);
+    bool any = false;
+    for (int s = 0; s < kFaces<D>; ++s) any |= static_cast<std::uint32_t>(face[s]) - halo_begin < n_halo;
+    for (int s = 0; s < kDiagonals<D>; ++s) any |= static_cast<std::uint32_t>(diag[s]) - halo_begin < n_halo;
+    if (!any) return;
+    auto& marks = read[static_cast<std::size_t>(l)];
+    auto mark = [&](Index n) {
+      if (static_cast<std::uint32_t>(n) - halo_begin < n_halo) marks[static_cast<std::size_t>((n - lv.halo_begin()) / C)] = 1;
+    };
+    for (int s = 0; s < kFaces<D>; ++s) mark(face[s]);
+    for (int s = 0; s < kDiagonals<D>; ++s) mark(diag[s]);
   };
   std::vector<std::uint8_t> seen(static_cast<std::size_t>(num_cells_), 0);
   auto reach = [&](int l, Index cell) {  // a cell whose stencils reach an owned value
@@ -176,9 +189,11 @@ template <int D>
 void Tree<D>::collect_face_ghosts() {
   face_ghosts_.assign(static_cast<std::size_t>(depth_) + 1, {});
   std::vector<std::uint8_t> marked(static_cast<std::size_t>(num_cells_), 0);
+  std::vector<std::pair<Index, Index>> ranges;  // owned_range per level, asked once
+  for (int l = 0; l <= depth_; ++l) ranges.push_back(owned_range(l));
   auto mark = [&](int l, Index c) {
     const Level<D>& lv = levels_[l];
-    const auto [begin, end] = owned_range(l);
+    const auto [begin, end] = ranges[static_cast<std::size_t>(l)];
     const Index i = c - lv.base;
     if (c < lv.base || c >= lv.active_end() || (i >= begin && i < end) || !lv.is_leaf(c) || !holds(c) ||
         marked[static_cast<std::size_t>(c)])
