@@ -1,0 +1,144 @@
+#include "geometry/solid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include <fmt/format.h>
+
+namespace capsflow::geometry {
+
+namespace {
+
+class Box final : public Solid {
+ public:
+  Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) : centre_((lo + hi) / 2), half_((hi - lo) / 2) {}
+  double signed_distance(const Eigen::Vector3d& x) const override {
+    // Per axis, how far beyond the box's faces x lies (negative: inside that slab).
+    const Eigen::Vector3d q = (x - centre_).cwiseAbs() - half_;
+    return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+  }
+
+ private:
+  Eigen::Vector3d centre_, half_;
+};
+
+class Sphere final : public Solid {
+ public:
+  Sphere(const Eigen::Vector3d& centre, double radius) : centre_(centre), radius_(radius) {}
+  double signed_distance(const Eigen::Vector3d& x) const override { return (x - centre_).norm() - radius_; }
+
+ private:
+  Eigen::Vector3d centre_;
+  double radius_;
+};
+
+class CylinderSolid final : public Solid {
+ public:
+  explicit CylinderSolid(const Cylinder& c) : c_(c) { c_.axis.normalize(); }
+  double signed_distance(const Eigen::Vector3d& x) const override {
+    const Eigen::Vector3d r = x - c_.centre;
+    const double s = r.dot(c_.axis);                 // along the axis
+    const double rho = (r - s * c_.axis).norm();     // from the axis
+    if (!(c_.half_length > 0.0)) return rho - c_.radius;
+    if (c_.rounded_ends) {                           // from the axis segment
+      const double beyond = std::max(std::abs(s) - c_.half_length, 0.0);
+      return std::hypot(rho, beyond) - c_.radius;
+    }
+    // In the meridian half-plane (|s|, rho) the solid is a rectangle.
+    const double a = rho - c_.radius, b = std::abs(s) - c_.half_length;
+    return std::hypot(std::max(a, 0.0), std::max(b, 0.0)) + std::min(std::max(a, b), 0.0);
+  }
+
+ private:
+  Cylinder c_;
+};
+
+// min (union) or max (intersection) over the parts.
+class Combination final : public Solid {
+ public:
+  Combination(std::vector<SolidPtr> parts, bool union_of_parts) : parts_(std::move(parts)), union_(union_of_parts) {}
+  double signed_distance(const Eigen::Vector3d& x) const override {
+    double d = parts_.front()->signed_distance(x);
+    for (std::size_t i = 1; i < parts_.size(); ++i) {
+      const double e = parts_[i]->signed_distance(x);
+      d = union_ ? std::min(d, e) : std::max(d, e);
+    }
+    return d;
+  }
+
+ private:
+  std::vector<SolidPtr> parts_;
+  bool union_;
+};
+
+class Complement final : public Solid {
+ public:
+  explicit Complement(SolidPtr s) : s_(std::move(s)) {}
+  double signed_distance(const Eigen::Vector3d& x) const override { return -s_->signed_distance(x); }
+
+ private:
+  SolidPtr s_;
+};
+
+void check_finite(const Eigen::Vector3d& v, const char* what) {
+  if (!v.allFinite()) throw std::invalid_argument(fmt::format("geometry: {} is not finite", what));
+}
+
+void check_parts(const std::vector<SolidPtr>& parts, const char* what) {
+  if (parts.empty()) throw std::invalid_argument(fmt::format("geometry: {} of no solids", what));
+  for (const SolidPtr& p : parts)
+    if (!p) throw std::invalid_argument(fmt::format("geometry: {} of a missing solid", what));
+}
+
+}  // namespace
+
+SolidPtr box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  check_finite(lo, "a box corner");
+  check_finite(hi, "a box corner");
+  for (int d = 0; d < 3; ++d)
+    if (!(lo[d] < hi[d]))
+      throw std::invalid_argument(fmt::format("geometry: box corners {} and {} along axis {} (need lo < hi)", lo[d], hi[d], d));
+  return std::make_shared<Box>(lo, hi);
+}
+
+SolidPtr sphere(const Eigen::Vector3d& centre, double radius) {
+  check_finite(centre, "a sphere centre");
+  if (!(radius > 0.0) || !std::isfinite(radius)) throw std::invalid_argument(fmt::format("geometry: sphere radius {}", radius));
+  return std::make_shared<Sphere>(centre, radius);
+}
+
+SolidPtr cylinder(const Cylinder& c) {
+  check_finite(c.centre, "a cylinder centre");
+  check_finite(c.axis, "a cylinder axis");
+  if (!(c.axis.norm() > 0.0)) throw std::invalid_argument("geometry: a cylinder axis of zero length");
+  if (!(c.radius > 0.0) || !std::isfinite(c.radius)) throw std::invalid_argument(fmt::format("geometry: cylinder radius {}", c.radius));
+  if (!std::isfinite(c.half_length)) throw std::invalid_argument("geometry: a cylinder half length is not finite");
+  return std::make_shared<CylinderSolid>(c);
+}
+
+SolidPtr unite(std::vector<SolidPtr> parts) {
+  check_parts(parts, "a union");
+  return std::make_shared<Combination>(std::move(parts), true);
+}
+
+SolidPtr intersect(std::vector<SolidPtr> parts) {
+  check_parts(parts, "an intersection");
+  return std::make_shared<Combination>(std::move(parts), false);
+}
+
+SolidPtr subtract(SolidPtr from, std::vector<SolidPtr> removed) {
+  check_parts({from}, "a difference");
+  check_parts(removed, "a difference");
+  std::vector<SolidPtr> parts{std::move(from)};
+  for (SolidPtr& r : removed) parts.push_back(complement(std::move(r)));
+  return intersect(std::move(parts));
+}
+
+SolidPtr complement(SolidPtr s) {
+  check_parts({s}, "a complement");
+  return std::make_shared<Complement>(std::move(s));
+}
+
+}  // namespace capsflow::geometry
