@@ -55,6 +55,64 @@ class CylinderSolid final : public Solid {
   Cylinder c_;
 };
 
+class TubeWall final : public Solid {
+ public:
+  explicit TubeWall(const Tube& t) : t_(t) { t_.axis.normalize(); }
+  double signed_distance(const Eigen::Vector3d& x) const override {
+    const Eigen::Vector3d r = x - t_.centre;
+    const double s = r.dot(t_.axis), rho = (r - s * t_.axis).norm();
+    const double d = std::sqrt(squared_distance(s, rho));
+    return rho < radius(s) ? d : -d;  // the fluid inside the tube is positive
+  }
+
+ private:
+  static constexpr double kPi = 3.14159265358979323846;
+  double radius(double s) const {
+    if (std::abs(s) >= t_.half_length) return t_.far_radius;
+    return t_.far_radius + (t_.throat_radius - t_.far_radius) * 0.5 * (1.0 + std::cos(kPi * s / t_.half_length));
+  }
+  double slope(double s) const {
+    if (std::abs(s) >= t_.half_length) return 0.0;
+    return -(t_.throat_radius - t_.far_radius) * 0.5 * kPi / t_.half_length * std::sin(kPi * s / t_.half_length);
+  }
+  double curvature(double s) const {
+    if (std::abs(s) >= t_.half_length) return 0.0;
+    const double k = kPi / t_.half_length;
+    return -(t_.throat_radius - t_.far_radius) * 0.5 * k * k * std::cos(k * s);
+  }
+  // min over the profile's points (u, R(u)) of the squared distance to (s, rho) in the
+  // meridian half-plane. Where R is constant (|u| >= L) the nearest point is u = s clamped
+  // into that part; on [-L, L] samples find the basin and Newton on the derivative polishes
+  // it (kept between the neighbouring samples).
+  double squared_distance(double s, double rho) const {
+    const double L = t_.half_length;
+    auto f = [&](double u) { return (s - u) * (s - u) + (rho - radius(u)) * (rho - radius(u)); };
+    double best = std::min(f(std::min(s, -L)), f(std::max(s, L)));
+    constexpr int kSamples = 128;
+    const double step = 2.0 * L / kSamples;
+    double best_u = -L, sampled = f(-L);
+    for (int k = 1; k <= kSamples; ++k) {
+      const double u = -L + k * step;
+      if (const double v = f(u); v < sampled) {
+        sampled = v;
+        best_u = u;
+      }
+    }
+    double u = best_u;
+    const double lo = std::max(best_u - step, -L), hi = std::min(best_u + step, L);
+    for (int it = 0; it < 30; ++it) {
+      const double g = -(s - u) - (rho - radius(u)) * slope(u);
+      const double h = 1.0 + slope(u) * slope(u) - (rho - radius(u)) * curvature(u);
+      if (!(h > 0.0)) break;
+      const double next = std::clamp(u - g / h, lo, hi);
+      if (next == u) break;
+      u = next;
+    }
+    return std::min({best, sampled, f(u)});
+  }
+  Tube t_;
+};
+
 // min (union) or max (intersection) over the parts.
 class Combination final : public Solid {
  public:
@@ -116,6 +174,16 @@ SolidPtr cylinder(const Cylinder& c) {
   if (!(c.radius > 0.0) || !std::isfinite(c.radius)) throw std::invalid_argument(fmt::format("geometry: cylinder radius {}", c.radius));
   if (!std::isfinite(c.half_length)) throw std::invalid_argument("geometry: a cylinder half length is not finite");
   return std::make_shared<CylinderSolid>(c);
+}
+
+SolidPtr tube_wall(const Tube& t) {
+  check_finite(t.centre, "a tube centre");
+  check_finite(t.axis, "a tube axis");
+  if (!(t.axis.norm() > 0.0)) throw std::invalid_argument("geometry: a tube axis of zero length");
+  for (const double v : {t.far_radius, t.throat_radius, t.half_length})
+    if (!(v > 0.0) || !std::isfinite(v))
+      throw std::invalid_argument(fmt::format("geometry: tube radii and half length must be > 0 (got {})", v));
+  return std::make_shared<TubeWall>(t);
 }
 
 SolidPtr unite(std::vector<SolidPtr> parts) {

@@ -40,6 +40,21 @@ struct Cylinder {
 };
 [[nodiscard]] SolidPtr cylinder(const Cylinder& c);
 
+// The wall around a circular tube whose radius changes along its axis: `far_radius` beyond
+// `half_length` either side of `centre`, `throat_radius` at the centre, and between them a
+// cosine blend, R(s) = far + (throat - far) (1 + cos(pi s / half_length)) / 2: a smooth
+// constriction (throat < far) or expansion (throat > far). The fluid is inside the tube; the
+// distance is exact (the nearest point of a surface of revolution lies in the point's
+// meridian plane, where it is found by a 1D minimisation).
+struct Tube {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();
+  double far_radius = 1.0;
+  double throat_radius = 1.0;
+  double half_length = 1.0;
+};
+[[nodiscard]] SolidPtr tube_wall(const Tube& t);
+
 // Set operations on solids (each at least one part).
 [[nodiscard]] SolidPtr unite(std::vector<SolidPtr> parts);
 [[nodiscard]] SolidPtr intersect(std::vector<SolidPtr> parts);

@@ -8,6 +8,8 @@
 #include <random>
 #include <stdexcept>
 
+#include <Eigen/Geometry>
+
 #include "geometry/solid.hpp"
 
 namespace capsflow::geometry {
@@ -128,6 +130,33 @@ TEST(Solid, SetOperationsClassifyAsTheSetLogicAndStayLipschitz) {
   const SolidPtr wall = complement(cylinder({.axis = {1, 0, 0}, .radius = 0.5}));
   EXPECT_DOUBLE_EQ(wall->signed_distance({3, 0, 0}), 0.5);  // the axis is fluid, 0.5 from the wall
   EXPECT_DOUBLE_EQ(wall->signed_distance({3, 0, 1}), -0.5);
+}
+
+TEST(Solid, TubeWithAConstrictionOrAnExpansionIsExact) {
+  std::mt19937_64 rng(5);
+  const Vector3d axis = Vector3d(1, 0.5, -0.25).normalized();
+  for (const double throat : {0.4, 1.6}) {  // a constriction and an expansion of a unit tube
+    const Tube t{.centre = {0.2, -0.1, 0.3}, .axis = axis, .far_radius = 1.0, .throat_radius = throat, .half_length = 1.5};
+    const SolidPtr wall = tube_wall(t);
+    // Far from the throat it is a straight tube's wall.
+    const SolidPtr straight = complement(cylinder({.centre = t.centre, .axis = axis, .radius = 1.0}));
+    const Vector3d across = axis.cross(Vector3d(Vector3d::UnitZ())).normalized();
+    for (const double rho : {0.0, 0.3, 0.99, 1.2, 2.5}) {
+      const Vector3d x = t.centre + 2.2 * axis + rho * across;  // the nearest profile point lies beyond the blend
+      if (rho < 1.0 - 0.6) {
+        EXPECT_NEAR(wall->signed_distance(x), straight->signed_distance(x), 1e-12) << "rho " << rho;
+      }
+    }
+    // The throat: on the axis at the centre, the distance is at most the throat radius and
+    // positive (fluid); on the wall there it is 0.
+    EXPECT_GT(wall->signed_distance(t.centre), 0.0);
+    EXPECT_LE(wall->signed_distance(t.centre), throat + 1e-15);
+    EXPECT_NEAR(wall->signed_distance(t.centre + throat * across), 0.0, 1e-15);
+    check_exact(*wall, rng, 400);
+    check_lipschitz(*wall, rng);
+  }
+  EXPECT_THROW((void)tube_wall({.throat_radius = 0.0}), std::invalid_argument);
+  EXPECT_THROW((void)tube_wall({.axis = {0, 0, 0}}), std::invalid_argument);
 }
 
 TEST(Solid, BadParametersAreRefused) {
