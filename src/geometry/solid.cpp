@@ -11,6 +11,16 @@ namespace capsflow::geometry {
 
 namespace {
 
+// x's coordinates about an axis (unit vector through `centre`): along it and from it.
+struct Meridian {
+  double s = 0.0, rho = 0.0;
+};
+Meridian meridian(const Eigen::Vector3d& x, const Eigen::Vector3d& centre, const Eigen::Vector3d& unit_axis) {
+  const Eigen::Vector3d r = x - centre;
+  const double s = r.dot(unit_axis);
+  return {s, (r - s * unit_axis).norm()};
+}
+
 class Box final : public Solid {
  public:
   Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) : centre_((lo + hi) / 2), half_((hi - lo) / 2) {}
@@ -38,9 +48,7 @@ class CylinderSolid final : public Solid {
  public:
   explicit CylinderSolid(const Cylinder& c) : c_(c) { c_.axis.normalize(); }
   double signed_distance(const Eigen::Vector3d& x) const override {
-    const Eigen::Vector3d r = x - c_.centre;
-    const double s = r.dot(c_.axis);                 // along the axis
-    const double rho = (r - s * c_.axis).norm();     // from the axis
+    const auto [s, rho] = meridian(x, c_.centre, c_.axis);
     if (!(c_.half_length > 0.0)) return rho - c_.radius;
     if (c_.rounded_ends) {                           // from the axis segment
       const double beyond = std::max(std::abs(s) - c_.half_length, 0.0);
@@ -59,8 +67,7 @@ class TubeWall final : public Solid {
  public:
   explicit TubeWall(const Tube& t) : t_(t) { t_.axis.normalize(); }
   double signed_distance(const Eigen::Vector3d& x) const override {
-    const Eigen::Vector3d r = x - t_.centre;
-    const double s = r.dot(t_.axis), rho = (r - s * t_.axis).norm();
+    const auto [s, rho] = meridian(x, t_.centre, t_.axis);
     const double d = std::sqrt(squared_distance(s, rho));
     return rho < radius(s) ? d : -d;  // the fluid inside the tube is positive
   }
