@@ -21,7 +21,7 @@ set(HDF5_PREFER_PARALLEL TRUE)
 find_package(HDF5 QUIET COMPONENTS C)
 capsflow_require(HDF5 libhdf5-openmpi-dev)
 
-find_package(VTK 9 QUIET COMPONENTS CommonCore CommonDataModel IOXML IOParallelXML ParallelMPI)
+find_package(VTK 9 QUIET COMPONENTS CommonCore CommonDataModel IOGeometry IOXML IOParallelXML ParallelMPI)
 capsflow_require(VTK libvtk9-dev)
 
 find_package(tomlplusplus QUIET)
