@@ -403,19 +403,11 @@ void Tree<D>::rebuild_deciding(Refined refined, bool in_parallel) {
   for (;; ++l) {
     Level<D>& cur = next[l];
     Index parents = 0;
-    if (in_parallel) {
-#pragma omp parallel for schedule(static) reduction(+ : parents) if (cur.n_active > kParallelMin)
-      for (Index i = 0; i < cur.n_active; ++i) {
-        const bool r = refined(l, cur, i);
-        cur.leaf[i] = !r;
-        parents += r;
-      }
-    } else {
-      for (Index i = 0; i < cur.n_active; ++i) {
-        const bool r = refined(l, cur, i);
-        cur.leaf[i] = !r;
-        parents += r;
-      }
+#pragma omp parallel for schedule(static) reduction(+ : parents) if (in_parallel && cur.n_active > kParallelMin)
+    for (Index i = 0; i < cur.n_active; ++i) {
+      const bool r = refined(l, cur, i);
+      cur.leaf[i] = !r;
+      parents += r;
     }
     if (parents == 0) break;
     if (l == options_.max_level)
