@@ -89,24 +89,28 @@ class TubeWall final : public Solid {
   }
   // min over the profile's points (u, R(u)) of the squared distance to (s, rho) in the
   // meridian half-plane. Where R is constant (|u| >= L) the nearest point is u = s clamped
-  // into that part; on [-L, L] samples find the basin and Newton on the derivative polishes
-  // it (kept between the neighbouring samples).
+  // into that part; on the blend samples find the basin and Newton on the derivative
+  // polishes it (kept between the neighbouring samples).
   double squared_distance(double s, double rho) const {
     const double L = t_.half_length;
     auto f = [&](double u) { return (s - u) * (s - u) + (rho - radius(u)) * (rho - radius(u)); };
-    double best = std::min(f(std::min(s, -L)), f(std::max(s, L)));
-    constexpr int kSamples = 128;
-    const double step = 2.0 * L / kSamples;
-    double best_u = -L, sampled = f(-L);
+    const double best = std::min({f(std::min(s, -L)), f(std::max(s, L)), f(std::clamp(s, -L, L))});
+    // A nearer point lies within sqrt(best) of s along the axis: sample only that part of
+    // the blend (most points far from the throat need none).
+    const double reach = std::sqrt(best), from = std::max(s - reach, -L), to = std::min(s + reach, L);
+    if (!(from < to)) return best;
+    constexpr int kSamples = 64;
+    const double step = (to - from) / kSamples;
+    double best_u = from, sampled = f(from);
     for (int k = 1; k <= kSamples; ++k) {
-      const double u = -L + k * step;
+      const double u = from + k * step;
       if (const double v = f(u); v < sampled) {
         sampled = v;
         best_u = u;
       }
     }
     double u = best_u;
-    const double lo = std::max(best_u - step, -L), hi = std::min(best_u + step, L);
+    const double lo = std::max(best_u - step, from), hi = std::min(best_u + step, to);
     for (int it = 0; it < 30; ++it) {
       const double g = -(s - u) - (rho - radius(u)) * slope(u);
       const double h = 1.0 + slope(u) * slope(u) - (rho - radius(u)) * curvature(u);
