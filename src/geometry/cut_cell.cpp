@@ -13,8 +13,8 @@ namespace capsflow::geometry {
 
 namespace {
 
-// Where the linear function crosses zero on the edge from a (f_a < 0) to b (f_b >= 0), as the
-// fraction of the edge from a: in (0, 1], never a division by zero.
+// Where the linear function crosses zero on the edge from a (f_a <= 0) to b (f_b > 0), as the
+// fraction of the edge from a: in [0, 1), never a division by zero.
 double crossing(double fa, double fb) { return fa / (fa - fb); }
 
 // The fluid fraction of an N-simplex (N + 1 vertices) with linear values f: the simplex's
@@ -25,7 +25,7 @@ template <int N>
 double simplex_fluid_fraction(const std::array<double, N + 1>& f) {
   std::array<int, N + 1> solid{}, fluid{};
   int ns = 0, nf = 0;
-  for (int i = 0; i <= N; ++i) (f[i] < 0.0 ? solid[ns++] : fluid[nf++]) = i;
+  for (int i = 0; i <= N; ++i) (f[i] <= 0.0 ? solid[ns++] : fluid[nf++]) = i;
   if (ns == 0) return 1.0;
   if (nf == 0) return 0.0;
   if (ns == 1) {  // the solid is the small simplex at the solid vertex
@@ -66,10 +66,12 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
   using V = Eigen::Matrix<double, D, 1>;
   std::array<int, D + 1> solid{}, fluid{};
   int ns = 0, nf = 0;
-  for (int i = 0; i <= D; ++i) (f[i] < 0.0 ? solid[ns++] : fluid[nf++]) = i;
+  for (int i = 0; i <= D; ++i) (f[i] <= 0.0 ? solid[ns++] : fluid[nf++]) = i;
   if (ns == 0 || nf == 0) return;
   auto point = [&](int s, int fl) { return V(x[s] + crossing(f[s], f[fl]) * (x[fl] - x[s])); };
-  const V into_solid = x[solid[0]];  // strictly on the solid side of the piece's plane
+  // A fluid vertex lies strictly on the fluid side of the piece's plane (a solid one may
+  // lie on it, at phi = 0), so it orients the normal.
+  const V from_fluid = x[fluid[0]];
   V area_vector, centroid;
   double area = 0.0;
   if constexpr (D == 2) {
@@ -77,7 +79,7 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
     const V q1 = ns == 1 ? point(solid[0], fluid[1]) : point(solid[1], fluid[0]);
     const V e = q1 - q0;
     area_vector = V(-e[1], e[0]);
-    if (area_vector.dot(into_solid - q0) < 0.0) area_vector = -area_vector;
+    if (area_vector.dot(from_fluid - q0) > 0.0) area_vector = -area_vector;
     area = e.norm();
     centroid = 0.5 * (q0 + q1);
   } else {
@@ -92,7 +94,7 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
       V q[3];
       for (int j = 0; j < 3; ++j) q[j] = ns == 1 ? point(apex, others[j]) : point(others[j], apex);
       triangle(q[0], q[1], q[2], area_vector, area, centroid);
-      if (area_vector.dot(into_solid - q[0]) < 0.0) area_vector = -area_vector;
+      if (area_vector.dot(from_fluid - q[0]) > 0.0) area_vector = -area_vector;
     } else {  // the planar quadrilateral Ppa, Ppb, Pqb, Pqa (cyclic)
       const int a = solid[0], b = solid[1], p = fluid[0], q = fluid[1];
       const V pa = point(a, p), pb = point(b, p), qb = point(b, q), qa = point(a, q);
@@ -101,7 +103,7 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
       triangle(pa, pb, qb, v1, a1, m1);
       triangle(pa, qb, qa, v2, a2, m2);
       area_vector = v1 + v2;  // the two halves are coplanar and equally oriented
-      if (area_vector.dot(into_solid - pa) < 0.0) area_vector = -area_vector;
+      if (area_vector.dot(from_fluid - pa) > 0.0) area_vector = -area_vector;
       area = a1 + a2;
       centroid = area > 0.0 ? V((a1 * m1 + a2 * m2) / area) : pa;
     }
@@ -128,8 +130,8 @@ template <int D>
 CellCut<D> cut_cell(const std::array<double, (1 << D)>& phi) {
   constexpr int C = 1 << D;
   CellCut<D> cut;
-  const bool all_fluid = std::ranges::all_of(phi, [](double v) { return v >= 0.0; });
-  const bool all_solid = std::ranges::all_of(phi, [](double v) { return v < 0.0; });
+  const bool all_fluid = std::ranges::all_of(phi, [](double v) { return v > 0.0; });
+  const bool all_solid = std::ranges::all_of(phi, [](double v) { return v <= 0.0; });
   if (all_fluid || all_solid) {
     cut.volume = all_fluid ? 1.0 : 0.0;
     cut.face.fill(cut.volume);

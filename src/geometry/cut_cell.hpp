@@ -1,6 +1,6 @@
 #pragma once
 // A cell cut by a wall (issue "Walls of any shape"): its fluid volume, the fluid part of each
-// face and the wall inside it, from the signed distance phi at its 2^D corners (phi >= 0 is
+// face and the wall inside it, from the signed distance phi at its 2^D corners (phi > 0 is
 // fluid). phi is taken linear on each simplex of the cell's Freudenthal (Kuhn) triangulation,
 // the D! simplices {x_p1 >= x_p2 >= ...} for each permutation p, whose faces on a cell face
 // split it along the diagonal from its lowest to its highest corner. That triangulation is
@@ -30,7 +30,9 @@ struct CellCut {
 };
 
 // The cut of the unit cell whose corner b (coordinate d = bit d of b) has the value phi[b].
-// Corners with phi >= 0 are fluid; a cell with every corner of one sign is full or empty.
+// Corners with phi > 0 are fluid, phi <= 0 solid: a wall through corners then belongs to the
+// fluid cells that touch it (a wall on a face closes that face and is the fluid cell's own
+// wall; the cell beyond is empty), so a face with an open part always has fluid on both sides.
 template <int D>
 [[nodiscard]] CellCut<D> cut_cell(const std::array<double, (1 << D)>& phi);
 

@@ -164,13 +164,32 @@ TEST(CutCell, NeighboursAgreeOnTheirSharedFace) {
 }
 
 TEST(CutCell, UncutCellsAreFullOrEmpty) {
-  const CellCut<3> full = cut_cell<3>({0.0, 1.0, 2.0, 0.5, 0.1, 0.2, 0.3, 0.4});
+  const CellCut<3> full = cut_cell<3>({1e-300, 1.0, 2.0, 0.5, 0.1, 0.2, 0.3, 0.4});
   EXPECT_EQ(full.volume, 1.0);
   EXPECT_FALSE(full.cut());
   for (const double f : full.face) EXPECT_EQ(f, 1.0);
   const CellCut<2> empty = cut_cell<2>({-1.0, -2.0, -0.5, -1e-300});
   EXPECT_EQ(empty.volume, 0.0);
   for (const double f : empty.face) EXPECT_EQ(f, 0.0);
+}
+
+TEST(CutCell, AWallOnAFaceIsTheFluidCellsOwn) {
+  // phi = 1 - x: zero on the cell's upper x face, fluid below it.
+  const CellCut<3> inside = cut_cell<3>(plane_corners<3>({-1.0, 0.0, 0.0}, -1.0));
+  EXPECT_DOUBLE_EQ(inside.volume, 1.0);
+  EXPECT_DOUBLE_EQ(inside.face[1], 0.0) << "the face the wall lies on is closed";
+  EXPECT_DOUBLE_EQ(inside.face[0], 1.0);
+  EXPECT_DOUBLE_EQ(inside.wall_area, 1.0);
+  EXPECT_DOUBLE_EQ(inside.wall[0], 1.0) << "the normal points into the solid, +x";
+  EXPECT_DOUBLE_EQ(inside.wall_centroid[0], 1.0);
+  // The cell beyond (phi = -x on its own unit cell) is empty, with every face closed.
+  const CellCut<3> beyond = cut_cell<3>(plane_corners<3>({-1.0, 0.0, 0.0}, 0.0));
+  EXPECT_EQ(beyond.volume, 0.0);
+  for (const double f : beyond.face) EXPECT_EQ(f, 0.0);
+  // A wall through one corner only is no wall: a full, uncut cell.
+  const CellCut<2> corner = cut_cell<2>({0.0, 1.0, 1.0, 2.0});
+  EXPECT_EQ(corner.volume, 1.0);
+  EXPECT_FALSE(corner.cut());
 }
 
 }  // namespace
