@@ -1,0 +1,225 @@
+// Embedded walls on the tree: cut cells evaluated near the wall, coarse values made
+// consistent with the fine ones (why and how: embedded_geometry.hpp).
+#include "fluid/embedded_geometry.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "geometry/cut_cell.hpp"
+#include "tree/morton.hpp"
+
+namespace capsflow::fluid {
+
+namespace {
+
+// The integer coordinates of any slot of level l (active, halo or boundary).
+template <int D>
+tree::Coords<D> slot_coords(const tree::Level<D>& lv, Index c) {
+  const Index local = c - lv.base;
+  if (local < lv.n_active + lv.n_halo) return tree::morton_decode<D>(lv.keys[static_cast<std::size_t>(local)]);
+  return lv.boundary_coords[static_cast<std::size_t>(local - lv.n_active - lv.n_halo)];
+}
+
+}  // namespace
+
+template <int D>
+EmbeddedGeometry<D>::EmbeddedGeometry(const tree::Tree<D>& t, geometry::SolidPtr solid)
+    : tree_(t), solid_(std::move(solid)) {
+  if (!solid_) throw std::invalid_argument("EmbeddedGeometry: no solid");
+  rebuild();
+}
+
+template <int D>
+double EmbeddedGeometry<D>::signed_distance(const tree::Point<D>& x) const {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (int d = 0; d < D; ++d) p[d] = x[d];
+  return solid_->signed_distance(p);
+}
+
+template <int D>
+bool EmbeddedGeometry<D>::near_wall(const tree::Box<D>& b, double margin) const {
+  tree::Point<D> centre{};
+  double half_diagonal = 0.0;
+  for (int d = 0; d < D; ++d) {
+    centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
+    half_diagonal += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
+  }
+  return !(signed_distance(centre) > std::sqrt(half_diagonal) + margin);
+}
+
+template <int D>
+std::array<double, D> EmbeddedGeometry<D>::wall_normal_area(Index c) const {
+  const int l = tree_.level_of(c);
+  const double area = std::pow(tree_.cell_size(l), D - 1);
+  const Index* row = tree_.level(l).face_row(c);
+  std::array<double, D> n{};
+  for (int d = 0; d < D; ++d) n[d] = area * (faces_[d][c] - faces_[d][row[2 * d + 1]]);
+  return n;
+}
+
+template <int D>
+tree::Point<D> EmbeddedGeometry<D>::wall_centroid(Index c) const {
+  tree::Point<D> x{};
+  for (int d = 0; d < D; ++d) x[d] = wall_centroid_[d][static_cast<std::size_t>(c)];
+  return x;
+}
+
+template <int D>
+void EmbeddedGeometry<D>::rebuild() {
+  const auto n = static_cast<std::size_t>(tree_.num_cells());
+  volume_.assign(n, 1.0);
+  resize<D>(faces_, tree_);
+  wall_area_.assign(n, 0.0);
+  for (auto& x : wall_centroid_) x.assign(n, 0.0);
+  side_.assign(n, 0);
+  for (int l = 0; l <= tree_.depth(); ++l) evaluate_level(l);
+  // From the deepest level up, as Tree::restrict_and_exchange: a level's coarse values come
+  // from the next level's, exchanged before, so that a parent whose children lie on several
+  // ranks gets its owner's means (its own local subtree may stop at placeholder leaves).
+  std::vector<std::span<double>> fields{volume_, wall_area_};
+  for (int d = 0; d < D; ++d) {
+    fields.emplace_back(faces_[d]);
+    fields.emplace_back(wall_centroid_[d]);
+  }
+  const int deepest = tree_.distributed() ? tree_.global_depth() : tree_.depth();
+  for (int l = deepest; l >= 0; --l) {
+    if (l <= tree_.depth()) make_coarse_consistent(l);
+    if (tree_.distributed()) tree_.update_ghosts(l, fields);
+  }
+  collect_walls();
+}
+
+template <int D>
+void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
+  const tree::Level<D>& lv = tree_.level(l);
+  const tree::TreeOptions<D>& o = tree_.options();
+  const double h = tree_.cell_size(l);
+  const tree::Coords<D> ijk = slot_coords<D>(lv, c);
+  std::array<double, (1 << D)> phi{};
+  for (int b = 0; b < (1 << D); ++b) {
+    tree::Point<D> x{};
+    for (int d = 0; d < D; ++d) {
+      std::int64_t k = static_cast<std::int64_t>(ijk[d]) + ((b >> d) & 1);
+      if (o.periodic[d]) {  // wrapped in integers: both sides of the seam get the same point
+        const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << l;
+        k = ((k % cells) + cells) % cells;
+      }
+      x[d] = o.origin[d] + static_cast<double>(k) * h;
+    }
+    phi[static_cast<std::size_t>(b)] = signed_distance(x);
+  }
+  const geometry::CellCut<D> cut = geometry::cut_cell<D>(phi);
+  const auto s = static_cast<std::size_t>(c);
+  volume_[s] = cut.volume;
+  for (int d = 0; d < D; ++d) faces_[d][s] = cut.face[static_cast<std::size_t>(2 * d)];
+  wall_area_[s] = cut.wall_area * std::pow(h, D - 1);
+  for (int d = 0; d < D; ++d)
+    wall_centroid_[d][s] = o.origin[d] + (ijk[d] + cut.wall_centroid[static_cast<std::size_t>(d)]) * h;
+}
+
+template <int D>
+void EmbeddedGeometry<D>::evaluate_level(int l) {
+  constexpr int C = tree::kChildren<D>;
+  const tree::Level<D>& lv = tree_.level(l);
+  const tree::TreeOptions<D>& o = tree_.options();
+  const double h = tree_.cell_size(l);
+  // A little over the half diagonal: a centre farther than this from the wall has its whole
+  // box, corners included, strictly on one side.
+  const double reach = 0.5 * h * std::sqrt(double(D)) * (1.0 + 1e-9);
+  const Index base = lv.base, n_active = lv.n_active, n_halo = lv.n_halo, size = lv.size();
+#pragma omp parallel for schedule(dynamic, 256) if (size > tree::kParallelMin)
+  for (Index i = 0; i < size; ++i) {
+    const Index c = base + i;
+    const auto s = static_cast<std::size_t>(c);
+    // The side of the coarse cell that holds this one, when it is wholly on one side.
+    std::int8_t inherited = 0;
+    if (l > 0 && i < n_active) inherited = side_[static_cast<std::size_t>(lv.group_parent[static_cast<std::size_t>(i / C)])];
+    else if (l > 0 && i < n_active + n_halo)
+      inherited = side_[static_cast<std::size_t>(lv.halo_parent[static_cast<std::size_t>((i - n_active) / C)])];
+    if (inherited == 0) {
+      const tree::Coords<D> ijk = slot_coords<D>(lv, c);
+      tree::Point<D> centre{};
+      for (int d = 0; d < D; ++d) {
+        std::int64_t k = ijk[d];
+        if (o.periodic[d]) {
+          const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << l;
+          k = ((k % cells) + cells) % cells;
+        }
+        centre[d] = o.origin[d] + (static_cast<double>(k) + 0.5) * h;
+      }
+      const double phi = signed_distance(centre);
+      if (phi > reach) inherited = 1;
+      else if (phi < -reach) inherited = -1;
+    }
+    side_[s] = inherited;
+    if (inherited == 0) {
+      cut_cell_at(c, l);
+      continue;
+    }
+    const double full = inherited > 0 ? 1.0 : 0.0;
+    volume_[s] = full;
+    for (int d = 0; d < D; ++d) faces_[d][s] = full;
+  }
+}
+
+template <int D>
+void EmbeddedGeometry<D>::make_coarse_consistent(int l) {
+  constexpr int C = tree::kChildren<D>;
+  // The mean of the lower faces along d of the 2^D cells from `first`.
+  auto lower_faces_mean = [this](int d, Index first) {
+    double sum = 0.0;
+    for (int b = 0; b < C; ++b)
+      if (!tree::child_bit(b, d)) sum += faces_[d][static_cast<std::size_t>(first + b)];
+    return sum / (C / 2);
+  };
+  const tree::Level<D>& lv = tree_.level(l);
+  const Index base = lv.base, n = lv.n_active;
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+  for (Index i = 0; i < n; ++i) {
+    const Index c = base + i;
+    const auto s = static_cast<std::size_t>(c);
+    const Index first = lv.first_child[static_cast<std::size_t>(i)];
+    if (lv.leaf[static_cast<std::size_t>(i)] == tree::Level<D>::kLeafNextToFiner) {
+      // A coarse face (against a finer parent): the mean of the fine faces covering it,
+      // which are the lower faces of c's halo children.
+      const Index* row = lv.face_row(c);
+      for (int d = 0; d < D; ++d) {
+        const Index lo = row[2 * d];
+        if (lo < lv.active_end() && !lv.is_leaf(lo)) faces_[d][s] = lower_faces_mean(d, first);
+      }
+      continue;
+    }
+    if (lv.leaf[static_cast<std::size_t>(i)]) continue;
+    // A parent: the means of its children (the next level, already final).
+    double volume = 0.0, area = 0.0;
+    std::array<double, D> moment{};
+    for (int b = 0; b < C; ++b) {
+      const auto k = static_cast<std::size_t>(first + b);
+      volume += volume_[k];
+      area += wall_area_[k];
+      for (int d = 0; d < D; ++d) moment[d] += wall_area_[k] * wall_centroid_[d][k];
+    }
+    volume_[s] = volume / C;
+    wall_area_[s] = area;
+    for (int d = 0; d < D; ++d) {
+      faces_[d][s] = lower_faces_mean(d, first);
+      wall_centroid_[d][s] = area > 0.0 ? moment[d] / area : 0.0;
+    }
+  }
+}
+
+template <int D>
+void EmbeddedGeometry<D>::collect_walls() {
+  cut_cells_.assign(static_cast<std::size_t>(tree_.depth() + 1), {});
+  for (int l = 0; l <= tree_.depth(); ++l) {
+    const tree::Level<D>& lv = tree_.level(l);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
+      if (wall_area_[static_cast<std::size_t>(c)] > 0.0) cut_cells_[static_cast<std::size_t>(l)].push_back(c);
+  }
+}
+
+template class EmbeddedGeometry<2>;
+template class EmbeddedGeometry<3>;
+
+}  // namespace capsflow::fluid

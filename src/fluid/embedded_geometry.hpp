@@ -1,0 +1,84 @@
+#pragma once
+// Embedded walls on the tree (issue "Walls of any shape"): the one description of where the
+// solids are that the operators, the coupling, the adaptation and the output ask. Made from a
+// geometry::Solid, for every cell slot of every level of the local tree:
+//   - volume(c): the fluid fraction of c's volume;
+//   - faces()[d][c]: the fluid fraction of c's lower face along d (the slot convention of
+//     faces.hpp: the upper face of a leaf is its upper neighbour's slot);
+//   - for each cut active cell, its wall: area vector (the integral of the normal into the
+//     solid), area and centroid, absolute.
+// Leaves, halo and boundary cells get the cut of their own box (geometry::cut_cell, from the
+// signed distance at the corners). Coarse values are then made consistent with the fine ones,
+// as the flux-matching operators need: a parent's volume and faces are the means of its
+// children's, and a leaf's face against a parent (a coarse face) the mean of the fine faces
+// covering it, as restrict_faces does for velocities. The wall's area vector comes from the
+// faces a cell ends up with, wall = h^(D-1) (face_lo - face_hi), so the discrete divergence
+// theorem holds on every cell of every level.
+//
+// The brick's own walls are not embedded walls: a case without solids builds none of this.
+// Evaluation is hierarchical: a cell whose centre is farther from the wall than its half
+// diagonal (|phi| is a lower bound of the distance, geometry/solid.hpp) is wholly fluid or
+// solid, and so are its descendants, so the solid is evaluated only near the wall and at the
+// centres of the coarse cells around it. Along a periodic direction the corners are wrapped
+// into the brick, so the cells on both sides of the seam see the same wall.
+//
+// N ranks: every rank evaluates its local tree (the same numbers for the same cell), then the
+// ghosts take their owners' values, so a cell that is a parent on its owner but a leaf in
+// another rank's local tree reads the same fractions everywhere.
+#include <array>
+#include <span>
+#include <vector>
+
+#include "fluid/faces.hpp"
+#include "geometry/solid.hpp"
+#include "tree/tree.hpp"
+
+namespace capsflow::fluid {
+
+template <int D>
+class EmbeddedGeometry {
+ public:
+  // Evaluates `solid` on t. Collective on N ranks.
+  EmbeddedGeometry(const tree::Tree<D>& t, geometry::SolidPtr solid);
+
+  // Evaluates again after the tree changed (an adaptation, a migration). Collective.
+  void rebuild();
+
+  const geometry::Solid& solid() const { return *solid_; }
+  // phi at a point of the brick (2D cases: the section z = 0 of the solid); > 0 in the fluid.
+  double signed_distance(const tree::Point<D>& x) const;
+  // Whether some point within `margin` of the box b may be solid or on the wall (false only
+  // when the box and its margin are surely fluid): for refinement along the walls.
+  bool near_wall(const tree::Box<D>& b, double margin) const;
+
+  std::span<const double> volume() const { return volume_; }
+  const FaceField<D>& faces() const { return faces_; }
+  // The wall in active cell c: zero area outside cut cells.
+  double wall_area(Index c) const { return wall_area_[static_cast<std::size_t>(c)]; }
+  std::array<double, D> wall_normal_area(Index c) const;  // integral of n (into the solid)
+  tree::Point<D> wall_centroid(Index c) const;
+  // The active cells of level l that the wall cuts (wall_area > 0), in index order.
+  std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
+
+ private:
+  // The corner values of cell c (wrapped along periodic directions), and its cut.
+  void cut_cell_at(Index c, int l);
+  void evaluate_level(int l);
+  // Level l's coarse faces and parents from the next level (final and exchanged).
+  void make_coarse_consistent(int l);
+  void collect_walls();
+
+  const tree::Tree<D>& tree_;
+  geometry::SolidPtr solid_;
+  std::vector<double> volume_;
+  FaceField<D> faces_;
+  std::vector<double> wall_area_;
+  std::array<std::vector<double>, D> wall_centroid_;  // relative to the cell's lower corner, absolute units
+  std::vector<std::int8_t> side_;  // +1 wholly fluid, -1 wholly solid (and so its children), 0 near the wall
+  std::vector<std::vector<Index>> cut_cells_;
+};
+
+extern template class EmbeddedGeometry<2>;
+extern template class EmbeddedGeometry<3>;
+
+}  // namespace capsflow::fluid

@@ -1,0 +1,62 @@
+// Embedded walls on N ranks: every cell a rank owns or holds as a ghost has the fractions and
+// the wall of the same cell in the serial tree, to the last bit, and the totals over the
+// owned leaves are the serial totals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+
+#include "fluid/embedded_geometry.hpp"
+#include "forest_fixtures.hpp"
+#include "parallel/exact_sum.hpp"
+#include "tree/distributed_forest.hpp"
+
+namespace capsflow::tree {
+namespace {
+
+template <int D>
+void check_against_serial(const TreeOptions<D>& o, const geometry::SolidPtr& solid) {
+  const parallel::Comm comm = parallel::Comm::world();
+  const Tree<D> serial = testing::uneven_tree(o);
+  Tree<D> t = testing::uneven_tree(o);
+  const auto forest = distribute(comm, t);
+  const fluid::EmbeddedGeometry<D> gs(serial, solid), g(t, solid);
+  std::int64_t compared = 0, differ = 0;
+  for (int l = 0; l <= t.depth(); ++l) {
+    const Level<D>& lv = t.level(l);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
+      if (!t.holds(c)) continue;
+      const Index s = serial.find(l, t.coords(c));
+      ASSERT_NE(s, kNone);
+      if (serial.level(l).is_leaf(s) != lv.is_leaf(c)) continue;  // a ghost the local tree does not refine
+      ++compared;
+      bool same = g.volume()[static_cast<std::size_t>(c)] == gs.volume()[static_cast<std::size_t>(s)] &&
+                  g.wall_area(c) == gs.wall_area(s);
+      for (int d = 0; d < D; ++d)
+        same = same && g.faces()[d][static_cast<std::size_t>(c)] == gs.faces()[d][static_cast<std::size_t>(s)] &&
+               g.wall_centroid(c)[d] == gs.wall_centroid(s)[d];
+      if (!same) ++differ;
+    }
+  }
+  EXPECT_GT(compared, 0);
+  EXPECT_EQ(differ, 0) << "of " << compared << " cells on rank " << comm.rank();
+  parallel::ExactSum fluid, fluid_serial;
+  for (const Index c : t.owned_leaves())
+    fluid.add(g.volume()[static_cast<std::size_t>(c)] * std::pow(t.cell_size(t.level_of(c)), D));
+  for (const Index c : serial.leaves())
+    fluid_serial.add(gs.volume()[static_cast<std::size_t>(c)] * std::pow(serial.cell_size(serial.level_of(c)), D));
+  EXPECT_EQ(t.global_sum(fluid), fluid_serial.value());
+}
+
+TEST(DistributedEmbeddedGeometry, MatchesSerial3D) {
+  check_against_serial<3>({.roots = {1, 1, 2}, .max_level = 5}, geometry::sphere({0.5, 0.45, 0.9}, 0.37));
+}
+
+TEST(DistributedEmbeddedGeometry, MatchesSerialPeriodic2D) {
+  TreeOptions<2> o{.roots = {2, 1}, .max_level = 7};
+  o.periodic[0] = true;
+  check_against_serial<2>(o, geometry::unite({geometry::sphere({0.1, 0.5, 0.0}, 0.3), geometry::sphere({2.1, 0.5, 0.0}, 0.3)}));
+}
+
+}  // namespace
+}  // namespace capsflow::tree
