@@ -25,6 +25,9 @@ enum class MembraneLaw : unsigned char { skalak, neo_hookean };
 enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
 enum class KernelType : unsigned char { cosine, hat, peskin4 };
 enum class NodeScheme : unsigned char { euler, ab2, midpoint };
+enum class SolidShape : unsigned char { box, sphere, cylinder, tube, stl };
+enum class SolidCombine : unsigned char { unite, subtract, intersect };
+enum class SolidFill : unsigned char { inside, outside };
 
 // The spelling of each enum value in a case file.
 [[nodiscard]] std::string_view to_string(BoundaryType v);
@@ -33,6 +36,9 @@ enum class NodeScheme : unsigned char { euler, ab2, midpoint };
 [[nodiscard]] std::string_view to_string(InitialShape v);
 [[nodiscard]] std::string_view to_string(KernelType v);
 [[nodiscard]] std::string_view to_string(NodeScheme v);
+[[nodiscard]] std::string_view to_string(SolidShape v);
+[[nodiscard]] std::string_view to_string(SolidCombine v);
+[[nodiscard]] std::string_view to_string(SolidFill v);
 
 struct DomainConfig {
   std::array<int, 3> roots{1, 1, 1};     // root cubes per direction
@@ -117,6 +123,27 @@ struct CapsuleConfig {
   bool operator==(const CapsuleConfig&) const = default;
 };
 
+// One [[solid]] table: a shape, which side of it is solid, and how it combines with the
+// solid of the tables before it (issue "Walls of any shape"; docs/case-file.md, "Solids").
+// Each shape reads its own keys; the others keep their defaults.
+struct SolidConfig {
+  SolidShape shape = SolidShape::box;
+  SolidCombine combine = SolidCombine::unite;  // with the tables above ("union" in the file)
+  SolidFill fill = SolidFill::inside;          // the solid is the shape's inside or its outside
+  std::array<double, 3> lo{}, hi{};            // box: its corners
+  std::array<double, 3> centre{};              // sphere, cylinder, tube
+  double radius = 0.0;                         // sphere, cylinder
+  std::array<double, 3> axis{1.0, 0.0, 0.0};   // cylinder, tube: the direction of the axis
+  double half_length = 0.0;                    // cylinder: 0 infinite; tube: the blend's half-length
+  bool rounded_ends = false;                   // cylinder: hemispherical ends
+  double far_radius = 0.0;                     // tube: the radius away from the throat
+  double throat_radius = 0.0;                  // tube: the radius at its centre
+  std::string file;                            // stl: the surface (absolute once parsed)
+  double scale = 1.0;                          // stl: x -> scale x + translate
+  std::array<double, 3> translate{};           // stl
+  bool operator==(const SolidConfig&) const = default;
+};
+
 struct TimeConfig {
   double dt = 1e-3;     // time step (fixed), or the first step when cfl > 0
   double t_end = 1.0;
@@ -144,6 +171,7 @@ struct CaseConfig {
   FluidConfig fluid{};
   AdaptConfig adapt{};
   std::vector<CapsuleConfig> capsules;  // [[capsule]] tables
+  std::vector<SolidConfig> solids;      // [[solid]] tables, combined in order
   TimeConfig time{};
   OutputConfig output{};
   bool operator==(const CaseConfig&) const = default;

@@ -31,6 +31,17 @@ inline constexpr NameTable<NodeScheme, 3> kNodeSchemes{{{NodeScheme::euler, "eul
                                                         {NodeScheme::ab2, "ab2"},
                                                         {NodeScheme::midpoint, "midpoint"}}};
 
+inline constexpr NameTable<SolidShape, 5> kSolidShapes{{{SolidShape::box, "box"},
+                                                        {SolidShape::sphere, "sphere"},
+                                                        {SolidShape::cylinder, "cylinder"},
+                                                        {SolidShape::tube, "tube"},
+                                                        {SolidShape::stl, "stl"}}};
+inline constexpr NameTable<SolidCombine, 3> kSolidCombines{{{SolidCombine::unite, "union"},
+                                                            {SolidCombine::subtract, "subtract"},
+                                                            {SolidCombine::intersect, "intersect"}}};
+inline constexpr NameTable<SolidFill, 2> kSolidFills{{{SolidFill::inside, "inside"},
+                                                      {SolidFill::outside, "outside"}}};
+
 inline constexpr std::array<std::string_view, 6> kSideNames{"x_lo", "x_hi", "y_lo",
                                                             "y_hi", "z_lo", "z_hi"};
 inline constexpr std::array<char, 3> kAxisNames{'x', 'y', 'z'};

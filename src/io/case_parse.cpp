@@ -4,7 +4,10 @@
 // boundary condition further down. Value ranges are checked afterwards by validate_case.
 #include <cerrno>
 #include <cstring>
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <initializer_list>
 #include <memory>
 #include <string>
 
@@ -19,6 +22,8 @@ namespace {
 
 using detail::CaseSource;
 using detail::TableReader;
+
+std::string toml_string_of(SolidShape shape) { return detail::toml_string(to_string(shape)); }
 
 void parse_domain(TableReader r, int dim, DomainConfig& d) {
   r.read("roots", d.roots, dim);
@@ -127,6 +132,72 @@ CapsuleConfig parse_capsule(TableReader r) {
   return c;
 }
 
+// A [[solid]] table: `shape` first, then the keys of that shape; a key of another shape is
+// reported as such. An STL path is taken relative to the case file's folder and kept
+// absolute, so the case.toml a run writes elsewhere still finds it.
+SolidConfig parse_solid(TableReader r, int dim) {
+  SolidConfig s;
+  if (!r.read("shape", s.shape, detail::kSolidShapes)) r.missing("shape", "box, sphere, cylinder, tube or stl");
+  r.read("combine", s.combine, detail::kSolidCombines);
+  r.read("fill", s.fill, detail::kSolidFills);
+  using enum SolidShape;
+  struct Owned {
+    std::string_view key;
+    std::initializer_list<SolidShape> shapes;
+  };
+  static const Owned kOwners[] = {{"lo", {box}},           {"hi", {box}},
+                                  {"centre", {sphere, cylinder, tube}}, {"radius", {sphere, cylinder}},
+                                  {"axis", {cylinder, tube}}, {"half_length", {cylinder, tube}},
+                                  {"rounded_ends", {cylinder}}, {"far_radius", {tube}},
+                                  {"throat_radius", {tube}}, {"file", {stl}},
+                                  {"scale", {stl}},          {"translate", {stl}}};
+  for (const Owned& o : kOwners) {
+    if (!r.has(o.key) || std::ranges::find(o.shapes, s.shape) != o.shapes.end()) continue;
+    std::string names;
+    for (const SolidShape owner : o.shapes) names += (names.empty() ? "" : " or ") + toml_string_of(owner);
+    r.source().fail(r.key_path(o.key), detail::toml_repr(*r.node(o.key)),
+                    fmt::format("only used with shape = {} (this solid is {})", names, toml_string_of(s.shape)));
+  }
+  auto need = [&r](bool found, std::string_view key, std::string_view why) {
+    if (!found) r.missing(key, why);
+  };
+  switch (s.shape) {
+    case box:
+      need(r.read("lo", s.lo, dim), "lo", "the box's lower corner");
+      need(r.read("hi", s.hi, dim), "hi", "the box's upper corner");
+      break;
+    case sphere:
+      need(r.read("centre", s.centre, dim), "centre", "the sphere's centre");
+      need(r.read("radius", s.radius), "radius", "the sphere's radius");
+      break;
+    case cylinder:
+      need(r.read("centre", s.centre, dim), "centre", "a point on the cylinder's axis");
+      need(r.read("radius", s.radius), "radius", "the cylinder's radius");
+      r.read("axis", s.axis, dim);
+      r.read("half_length", s.half_length);
+      r.read("rounded_ends", s.rounded_ends);
+      break;
+    case tube:
+      need(r.read("centre", s.centre, dim), "centre", "the centre of the tube's throat");
+      need(r.read("far_radius", s.far_radius), "far_radius", "the tube's radius away from the throat");
+      need(r.read("throat_radius", s.throat_radius), "throat_radius", "the tube's radius at its throat");
+      need(r.read("half_length", s.half_length), "half_length", "the half-length of the change of radius");
+      r.read("axis", s.axis, dim);
+      break;
+    case stl: {
+      need(r.read("file", s.file), "file", "the STL file of the surface");
+      r.read("scale", s.scale);
+      r.read("translate", s.translate, dim);
+      std::filesystem::path file(s.file);
+      if (!s.file.empty() && file.is_relative()) file = std::filesystem::path(r.source().name).parent_path() / file;
+      if (!s.file.empty()) s.file = std::filesystem::absolute(file).lexically_normal().string();
+      break;
+    }
+  }
+  r.finish();
+  return s;
+}
+
 void parse_time(TableReader r, TimeConfig& t) {
   r.read("dt", t.dt);
   r.read("t_end", t.t_end);
@@ -157,6 +228,7 @@ CaseConfig parse_root(const toml::table& root, CaseSource& source) {
   const toml::table* fluid = r.table("fluid");
   const toml::table* adapt = r.table("adapt");
   const toml::array* capsules = r.array_of_tables("capsule");
+  const toml::array* solids = r.array_of_tables("solid");
   const toml::table* time = r.table("time");
   const toml::table* output = r.table("output");
   r.finish();
@@ -172,6 +244,10 @@ CaseConfig parse_root(const toml::table& root, CaseSource& source) {
     for (std::size_t i = 0; i < capsules->size(); ++i)
       c.capsules.push_back(parse_capsule(
           TableReader(*capsules->get(i)->as_table(), fmt::format("capsule[{}]", i), source)));
+  if (solids)
+    for (std::size_t i = 0; i < solids->size(); ++i)
+      c.solids.push_back(parse_solid(TableReader(*solids->get(i)->as_table(), fmt::format("solid[{}]", i), source),
+                                     c.dimension));
   parse_time(section(time, "time"), c.time);
   parse_output(section(output, "output"), c.output);
   if (c.output.directory.empty()) c.output.directory = "out/" + c.name;

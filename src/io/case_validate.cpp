@@ -7,6 +7,7 @@
 
 #include "ibm/kernels.hpp"
 #include "io/case_names.hpp"
+#include "io/case_solids.hpp"
 
 namespace capsflow::io {
 
@@ -302,6 +303,7 @@ void validate_case(const CaseConfig& c, const CaseSource& source) {
   check_adapt(c, ck);
   for (std::size_t i = 0; i < c.capsules.size(); ++i) check_capsule(c, i, ck);
   check_capsule_overlaps(c, ck);
+  for (std::size_t i = 0; i < c.solids.size(); ++i) check_solid(c, i, source);
   check_time(c, ck);
   check_output(c, ck);
 }

@@ -103,6 +103,42 @@ std::string to_toml(const CaseConfig& c) {
     line("divergence_free", b(cap.divergence_free));
   }
 
+  for (const SolidConfig& s : c.solids) {
+    out += "\n[[solid]]\n";
+    line("shape", toml_string(to_string(s.shape)));
+    line("combine", toml_string(to_string(s.combine)));
+    line("fill", toml_string(to_string(s.fill)));
+    switch (s.shape) {  // the keys of this shape only: the others are refused on reading
+      case SolidShape::box:
+        line("lo", array_repr(s.lo, n));
+        line("hi", array_repr(s.hi, n));
+        break;
+      case SolidShape::sphere:
+        line("centre", array_repr(s.centre, n));
+        line("radius", toml_number(s.radius));
+        break;
+      case SolidShape::cylinder:
+        line("centre", array_repr(s.centre, n));
+        line("radius", toml_number(s.radius));
+        line("axis", array_repr(s.axis, n));
+        line("half_length", toml_number(s.half_length));
+        line("rounded_ends", b(s.rounded_ends));
+        break;
+      case SolidShape::tube:
+        line("centre", array_repr(s.centre, n));
+        line("far_radius", toml_number(s.far_radius));
+        line("throat_radius", toml_number(s.throat_radius));
+        line("half_length", toml_number(s.half_length));
+        line("axis", array_repr(s.axis, n));
+        break;
+      case SolidShape::stl:
+        line("file", toml_string(s.file));
+        line("scale", toml_number(s.scale));
+        line("translate", array_repr(s.translate, n));
+        break;
+    }
+  }
+
   out += "\n[time]\n";
   line("dt", toml_number(c.time.dt));
   line("t_end", toml_number(c.time.t_end));
