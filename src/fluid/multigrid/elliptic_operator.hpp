@@ -13,6 +13,12 @@
 // level operator) uses the plain same-level stencil:
 //   da_c <- (sum_k alpha_k da_{n_k} - h^2 r_c) / (sum_k alpha_k - h^2 lambda_c)
 // by red-black Gauss-Seidel (colour = parity of i+j+k) or weighted Jacobi.
+//
+// Embedded walls (Walls = WallTerms, multigrid/wall_flux.hpp) add each cut cell's flux through
+// its wall, a fixed stencil over its 3^D block; the relaxation takes the cell's own weight
+// into the diagonal and the others' at their values when the colour's pass starts (a cell of
+// the same colour may be in the stencil: read before the pass, every thread and rank sees
+// the same numbers). Without walls (NoWalls) nothing of it is compiled in.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -24,6 +30,7 @@
 #include "common/assert.hpp"
 #include "fluid/multigrid/coefficients.hpp"
 #include "fluid/multigrid/multigrid_options.hpp"
+#include "fluid/multigrid/wall_flux.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::fluid {
@@ -41,15 +48,19 @@ inline constexpr Index kRelaxParallelMin = 32768;
 // interleaved runs, 1 thread): 128^3 relaxation -12%, residual -11%; 64^3 -9%, 0%.
 inline constexpr Index kPrefetchGroups = 16;
 
-template <int D, class Alpha = ConstantFaces, class Lambda = ZeroCells>
+// Red-black passes over the cells near embedded walls before each sweep (WallFlux::band):
+// the walls' stencils reach past the face neighbours and smooth slowly otherwise.
+inline constexpr int kWallBandPasses = 2;
+
+template <int D, class Alpha = ConstantFaces, class Lambda = ZeroCells, class Walls = NoWalls>
 class EllipticOperator {
  public:
   static constexpr int kDimension = D;
   static constexpr int F = 2 * D;
   static constexpr int C = tree::kChildren<D>;
 
-  EllipticOperator(const tree::Tree<D>& t, Alpha alpha, Lambda lambda, tree::BoundaryConditions<D> bc)
-      : tree_(t), alpha_(alpha), lambda_(lambda), bc_(std::move(bc)), correction_bc_(bc_.homogeneous()) {}
+  EllipticOperator(const tree::Tree<D>& t, Alpha alpha, Lambda lambda, tree::BoundaryConditions<D> bc, Walls walls = {})
+      : tree_(t), alpha_(alpha), lambda_(lambda), walls_(walls), bc_(std::move(bc)), correction_bc_(bc_.homogeneous()) {}
 
   const tree::Tree<D>& tree() const { return tree_; }
   const tree::BoundaryConditions<D>& bc() const { return bc_; }
@@ -81,7 +92,8 @@ class EllipticOperator {
       if (n < lv.active_end() && !lv.leaf[n - lv.base]) sum += fine_flux_times_h(lv, c, k, n, a);
       else sum += alpha_.at(c, k) * (a[n] - ac);
     }
-    return sum * (1.0 / (h * h)) + lambda_term(c, ac);
+    if constexpr (Walls::kActive) return sum * (1.0 / (h * h)) + lambda_term(c, ac) + wall_term(c, a);
+    else return sum * (1.0 / (h * h)) + lambda_term(c, ac);
   }
 
   // res = b - L(a) on the leaves, and on every parent the volume mean of its children's
@@ -124,7 +136,10 @@ class EllipticOperator {
                         (opt.smoother != Smoother::jacobi || spans_cells(scratch)),
                     "EllipticOperator::relax: a field does not have the tree's num_cells entries");
     const tree::Level<D>& lv = tree_.level(l);
-    const Diagonal diag{tree_.cell_size(l) * tree_.cell_size(l), *this};
+    CAPSFLOW_ASSERT(!Walls::kActive || opt.smoother == Smoother::red_black,
+                    "EllipticOperator::relax: embedded walls are relaxed by red-black Gauss-Seidel only");
+    Diagonal diag{tree_.cell_size(l) * tree_.cell_size(l), *this};
+    if constexpr (Walls::kActive) diag.wall_others = scratch.data();
     // Level 0 (a few roots, not sibling groups) and a call without sweeps correct apart.
     const bool fuse = !corrected.empty() && l > 0 && sweeps > 0;
     for (int s = 0; s < sweeps; ++s) {
@@ -137,8 +152,11 @@ class EllipticOperator {
         // every cell, with no exchange). A half-sweep changes its colour only: the ghosts
         // of the other one already hold their owners' values, and only half are sent.
         const bool exchange = !tree_.replicated_level(l);
+        relax_wall_band(l, lv, diag, da, res, scratch, exchange);
+        lag_wall_terms(l, da, scratch);
         relax_colour<0>(l, lv, diag, da, res, {});
         if (exchange) tree_.update_ghosts(l, da, 0);
+        lag_wall_terms(l, da, scratch);
         relax_colour<1>(l, lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
         if (exchange) tree_.update_ghosts(l, da, 1);
       } else {
@@ -162,6 +180,7 @@ class EllipticOperator {
 
  private:
   static constexpr bool kConstantDiagonal = Alpha::kConstant && Lambda::kConstant;
+  static_assert(!Walls::kActive || !Alpha::kConstant, "embedded walls need the face fractions in the face coefficients");
 
   bool spans_cells(std::span<const double> v) const { return v.size() == static_cast<std::size_t>(tree_.num_cells()); }
 
@@ -172,11 +191,36 @@ class EllipticOperator {
   // the compiler reloaded them after every update.
   struct Diagonal {
     double h2 = 0.0, inverse = 0.0, alpha = 0.0;
+    const double* wall_others = nullptr;  // with walls: each cut cell's lagged stencil sum
     Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
       if constexpr (Alpha::kConstant) alpha = op.alpha_.value;
       if constexpr (kConstantDiagonal) inverse = 1.0 / (F * alpha - h2 * op.lambda_.at(0));
     }
   };
+
+  // The walls' part of L(a)_c (only compiled in with walls: x + 0.0 is not folded away).
+  double wall_term(Index c, std::span<const double> a) const { return walls_.cut(c) ? walls_.term(c, a) : 0.0; }
+
+  // Before a colour's pass: each cut cell of level l gets the walls' sum over the rest of
+  // its stencil, at the values da holds now, in scratch (unused by red-black otherwise).
+  void lag_wall_terms(int l, std::span<const double> da, std::span<double> scratch) const {
+    if constexpr (Walls::kActive) {
+      for (const Index c : walls_.flux->cut_cells(l)) scratch[c] = walls_.others(c, da);
+    }
+  }
+
+  // Extra red-black passes over the cells near the walls (WallFlux::band).
+  void relax_wall_band(int l, const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
+                       std::span<double> scratch, bool exchange) const {
+    if constexpr (Walls::kActive) {
+      for (int pass = 0; pass < kWallBandPasses; ++pass)
+        for (int colour = 0; colour < 2; ++colour) {
+          lag_wall_terms(l, da, scratch);
+          for (const Index c : walls_.flux->band(l, colour)) da[c] = updated(lv, c, dg, da, res);
+          if (exchange) tree_.update_ghosts(l, da, colour);
+        }
+    }
+  }
 
   // lambda_c a_c, left out for lambda = 0 (0 * a is not folded away by the compiler).
   double lambda_term(Index c, double ac) const {
@@ -197,7 +241,8 @@ class EllipticOperator {
 #pragma GCC unroll 6
       for (int k = 0; k < F; ++k) sum += alpha_.at(c, k) * (a[nb(k)] - ac);
     }
-    return sum * inv_h2 + lambda_term(c, ac);
+    if constexpr (Walls::kActive) return sum * inv_h2 + lambda_term(c, ac) + wall_term(c, a);
+    else return sum * inv_h2 + lambda_term(c, ac);
   }
 
   static void prefetch_high_neighbors(const tree::Level<D>& lv, Index group, const double* v) {
@@ -320,6 +365,12 @@ class EllipticOperator {
         diag += a;
       }
     }
+    if constexpr (Walls::kActive) {
+      if (walls_.cut(c)) {
+        off += h2 * dg.wall_others[c];
+        diag -= h2 * walls_.self(c);
+      }
+    }
     return (off - h2 * res[c]) / (diag - h2 * lambda_.at(c));
   }
   double updated(const tree::Level<D>& lv, Index c, const Diagonal& dg, std::span<const double> da,
@@ -401,6 +452,7 @@ class EllipticOperator {
   const tree::Tree<D>& tree_;
   Alpha alpha_;
   Lambda lambda_;
+  Walls walls_;
   tree::BoundaryConditions<D> bc_;
   tree::BoundaryConditions<D> correction_bc_;
 };
