@@ -96,15 +96,27 @@ void for_each_face(const tree::Tree<D>& t, F&& f) {
 namespace detail {
 
 // The coarse faces of leaf c (next to a finer region) from their fine faces (restrict_faces).
+// With `weights` (a face field), the weighted mean: sum w_f u_f / sum w_f, 0 where the
+// weights are (embedded walls: the flux through the fluid part of a coarse face is then the
+// sum of its fine faces').
 template <int D>
-inline void restrict_faces_at(const tree::Level<D>& lv, Index c, FaceField<D>& uf) {
+inline void restrict_faces_at(const tree::Level<D>& lv, Index c, FaceField<D>& uf, const FaceField<D>* weights = nullptr) {
   constexpr int C = tree::kChildren<D>;
   // The mean of the lower faces along d of the children of `cell` (halo or active).
-  auto lower_faces_mean = [&uf, &lv](int d, Index cell) {
+  auto lower_faces_mean = [&uf, &lv, weights](int d, Index cell) {
     const Index first = lv.first_child[static_cast<std::size_t>(cell - lv.base)];
-    double sum = 0.0;
-    for (int b = 0; b < C; ++b)
-      if (!tree::child_bit(b, d)) sum += uf[d][first + b];
+    double sum = 0.0, weight = 0.0;
+    for (int b = 0; b < C; ++b) {
+      if (tree::child_bit(b, d)) continue;
+      if (weights) {
+        const double w = (*weights)[d][first + b];
+        sum += w * uf[d][first + b];
+        weight += w;
+      } else {
+        sum += uf[d][first + b];
+      }
+    }
+    if (weights) return weight > 0.0 ? sum / weight : 0.0;
     return sum / (C / 2);
   };
   const Index* row = lv.face_row(c);
@@ -117,9 +129,10 @@ inline void restrict_faces_at(const tree::Level<D>& lv, Index c, FaceField<D>& u
 
 }  // namespace detail
 
-// Coarse faces (leaf against a parent of its level) get the mean of their fine faces.
+// Coarse faces (leaf against a parent of its level) get the mean of their fine faces, weighted
+// by `weights` when given (restrict_faces_at).
 template <int D>
-void restrict_faces(const tree::Tree<D>& t, FaceField<D>& uf) {
+void restrict_faces(const tree::Tree<D>& t, FaceField<D>& uf, const FaceField<D>* weights = nullptr) {
   CAPSFLOW_ASSERT(spans_cells<D>(uf, t), "restrict_faces: the face field does not have the tree's num_cells slots");
   // Distributed: the owned groups and Tree::face_ghosts, as for_each_face (an owned parent's
   // slot is restricted by its lower neighbour leaf, which can be a ghost).
@@ -131,14 +144,14 @@ void restrict_faces(const tree::Tree<D>& t, FaceField<D>& uf) {
 #pragma omp parallel for schedule(static) if (end - begin > tree::kParallelMin)
     for (Index i = begin; i < end; ++i)
       if (lv.leaf[i] == tree::Level<D>::kLeafNextToFiner && (!distributed || t.holds(base + i)))
-        detail::restrict_faces_at<D>(lv, base + i, uf);
+        detail::restrict_faces_at<D>(lv, base + i, uf, weights);
     if (!distributed) continue;
     const std::span<const Index> ghosts = t.face_ghosts(l);
     const auto n = static_cast<Index>(ghosts.size());
 #pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
     for (Index k = 0; k < n; ++k) {
       const Index c = ghosts[static_cast<std::size_t>(k)];
-      if (lv.leaf[static_cast<std::size_t>(c - base)] == tree::Level<D>::kLeafNextToFiner) detail::restrict_faces_at<D>(lv, c, uf);
+      if (lv.leaf[static_cast<std::size_t>(c - base)] == tree::Level<D>::kLeafNextToFiner) detail::restrict_faces_at<D>(lv, c, uf, weights);
     }
   }
 }
@@ -190,16 +203,22 @@ Index upper_face(const tree::Level<D>& lv, Index c, int d) {
 }
 
 // div(uf) at the leaves this rank owns (every leaf on one rank; the callers read owned
-// leaves only): sum_d (uf_up - uf_low) / h.
+// leaves only): sum_d (uf_up - uf_low) / h. With `open` (embedded walls: the faces' fluid
+// fractions), the divergence of each cell's fluid part per unit of its whole volume,
+// sum_d (fs_up uf_up - fs_low uf_low) / h.
 template <int D>
-void divergence(const tree::Tree<D>& t, const FaceField<D>& uf, std::span<double> div) {
+void divergence(const tree::Tree<D>& t, const FaceField<D>& uf, std::span<double> div, const FaceField<D>* open = nullptr) {
   CAPSFLOW_ASSERT(spans_cells<D>(uf, t) && div.size() == static_cast<std::size_t>(t.num_cells()),
                   "divergence: a field does not have the tree's num_cells slots");
   for_each_owned_leaf_level<D>(t, [&](Index c, int l, double h) {
     const tree::Level<D>& lv = t.level(l);
     const Index* row = lv.face_row(c);
     double s = 0.0;
-    for (int d = 0; d < D; ++d) s += uf[d][row[2 * d + 1]] - uf[d][c];
+    if (open) {
+      for (int d = 0; d < D; ++d) s += (*open)[d][row[2 * d + 1]] * uf[d][row[2 * d + 1]] - (*open)[d][c] * uf[d][c];
+    } else {
+      for (int d = 0; d < D; ++d) s += uf[d][row[2 * d + 1]] - uf[d][c];
+    }
     div[c] = s / h;
   });
 }

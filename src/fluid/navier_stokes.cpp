@@ -206,8 +206,8 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
   const double lambda = -options_.density / dt;
   const double theta = options_.crank_nicolson ? 0.5 : 1.0;  // implicit share
   for (int d = 0; d < D; ++d) {
-    if (properties_) {
-      const auto s = variable_viscous_solve(d, dt, theta);
+    if (properties_ || embedded_) {
+      const auto s = embedded_ ? embedded_viscous_solve(d, dt, theta) : variable_viscous_solve(d, dt, theta);
       stats.viscous_cycles += s.cycles;
       stats.count_solve(s.converged);
       continue;
@@ -296,27 +296,31 @@ void NavierStokes<D>::acceleration(double dt) {
       uf_[d][hi] += dt * alpha(d, lo, hi, lv) * force_[d][hi];
     });
   });
-  restrict_faces<D>(tree_, uf_);
+  restrict_faces<D>(tree_, uf_, open_faces());
 }
 
 template <int D>
 int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt,
                              StepStats& stats) {
-  divergence<D>(tree_, uf, div_);
-  tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });  // a ghost's residual is its owner's
   std::span<double> pv = tree_.values(p);
   MultigridOptions scaled = opt;
   scaled.tolerance /= dt * dt;  // residual of div(alpha grad p) = div(uf)/dt
   MultigridStats s;
-  with_inverse_density([&](auto alpha, auto faces) {
-    const EllipticOperator<D, decltype(faces)> op(tree_, faces, {}, conditions_.pressure);
-    s = solve(op, pv, rhs_, mg_, scaled);  // leaves p synced (quadratic halos)
-    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
-      uf[d][hi] -= dt * alpha(d, lo, hi, lv) * (pv[hi] - pv[lo]) / h;
+  if (embedded_) {
+    s = embedded_projection(uf, pv, dt, scaled);
+  } else {
+    divergence<D>(tree_, uf, div_);
+    tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });  // a ghost's residual is its owner's
+    with_inverse_density([&](auto alpha, auto faces) {
+      const EllipticOperator<D, decltype(faces)> op(tree_, faces, {}, conditions_.pressure);
+      s = solve(op, pv, rhs_, mg_, scaled);  // leaves p synced (quadratic halos)
+      for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
+        uf[d][hi] -= dt * alpha(d, lo, hi, lv) * (pv[hi] - pv[lo]) / h;
+      });
     });
-  });
+  }
   stats.count_solve(s.converged);
-  restrict_faces<D>(tree_, uf);
+  restrict_faces<D>(tree_, uf, open_faces());
   // Distributed: a ghost's coarse face is the mean of fine faces this rank may not have;
   // the owners' projected faces instead (the advection reads the ghosts' faces).
   tree_.update_ghosts(components<D>(uf));
@@ -342,15 +346,19 @@ void NavierStokes<D>::centred_gradient(double dt, bool only_g) {
       gf[d][hi] = alpha(d, lo, hi, lv) * (force_[d][hi] - (p[hi] - p[lo]) / h);
     });
   });
-  restrict_faces<D>(tree_, gf);
-  for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {  // the ghosts' come by the exchange below
-    const Index* row = tree_.level(l).face_row(c);
-    for (int d = 0; d < D; ++d) {
-      const double g = 0.5 * (gf[d][c] + gf[d][row[2 * d + 1]]);
-      tree_.values(g_[d])[c] = g;
-      if (!only_g) tree_.values(u_[d])[c] += dt * g;
-    }
-  });
+  restrict_faces<D>(tree_, gf, open_faces());
+  if (embedded_) {
+    embedded_centred_gradient(gf, dt, only_g);
+  } else {
+    for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {  // the ghosts' come by the exchange below
+      const Index* row = tree_.level(l).face_row(c);
+      for (int d = 0; d < D; ++d) {
+        const double g = 0.5 * (gf[d][c] + gf[d][row[2 * d + 1]]);
+        tree_.values(g_[d])[c] = g;
+        if (!only_g) tree_.values(u_[d])[c] += dt * g;
+      }
+    });
+  }
   // Distributed: a ghost's faces may lie past the ghost layer; its owner's values instead
   // (g and u in one message per neighbour rank).
   std::array<std::span<double>, 2 * D> gu;
@@ -375,7 +383,7 @@ bool NavierStokes<D>::leaves_finite() const {
 
 template <int D>
 double NavierStokes<D>::max_divergence() {
-  divergence<D>(tree_, uf_, div_);
+  divergence<D>(tree_, uf_, div_, open_faces());
   double worst = 0.0;
   for (const Index c : tree_.owned_leaves()) worst = std::max(worst, abs_or_infinity(div_[c]));
   return tree_.global_max(worst);
@@ -467,6 +475,7 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
   resize_scratch();
   faces_current_ = false;
   faces_carried_ = false;
+  if (embedded_) rebuild_embedded();
   if (keep) carry_faces_through_adapt();
   if (keep_distributed) carry_faces_in_fields();
   return counts;

@@ -24,14 +24,17 @@
 #include <algorithm>
 #include <array>
 #include <functional>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
 
+#include "fluid/embedded_geometry.hpp"
 #include "fluid/faces.hpp"
 #include "fluid/flow_boundary.hpp"
 #include "fluid/flow_properties.hpp"
 #include "fluid/multigrid/multigrid.hpp"
+#include "fluid/multigrid/wall_flux.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::fluid {
@@ -163,6 +166,16 @@ class NavierStokes {
   // With set_properties: the viscosity field and its face means (2D per cell slot).
   tree::FieldId viscosity_field() const { return mu_field_; }
   const std::vector<double>& face_viscosities() const { return mu_faces_; }
+  // Embedded walls (issue "Walls of any shape"): the solid is no-slip fluid-free space. The
+  // viscous and pressure operators take the fluid fractions and the walls' fluxes
+  // (multigrid/wall_flux.hpp), the divergence is that of each cell's fluid part, faces
+  // without fluid carry no velocity and cells without fluid none. Rebuilt by every adapt().
+  // Stokes only for now, with constant properties (std::invalid_argument otherwise, at the
+  // first step). Collective on N ranks.
+  void set_solid(geometry::SolidPtr solid);
+  // The embedded walls, or nullptr.
+  const EmbeddedGeometry<D>* embedded() const { return embedded_.get(); }
+
   // The body force of the last step on faces, as the acceleration stage applied it (zero on
   // the faces of sides with a prescribed normal velocity, which carry the force).
   const FaceField<D>& face_force() const { return force_; }
@@ -211,6 +224,15 @@ class NavierStokes {
   void evaluate_force();
   void shift_by_g(int d, double s);  // u_d += s g_d on the leaves
   MultigridStats variable_viscous_solve(int d, double dt, double theta);
+  // Embedded walls (ns_embedded.cpp): the geometry and its operators after the tree changed;
+  // the viscous solve of component d; the projection's solve and face update; the cell mean
+  // of the face accelerations (open faces only).
+  void rebuild_embedded();
+  // The fluid fractions of the faces with embedded walls (the weights of restrict_faces), or nullptr.
+  const FaceField<D>* open_faces() const { return embedded_ ? &embedded_->faces() : nullptr; }
+  MultigridStats embedded_viscous_solve(int d, double dt, double theta);
+  MultigridStats embedded_projection(FaceField<D>& uf, std::span<double> p, double dt, const MultigridOptions& opt);
+  void embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g);
   template <class Body>
   void with_inverse_density(Body&& body) const;
 
@@ -242,6 +264,13 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   double rho_min_ = 1.0;                        // scales the viscous tolerance
+  // Embedded walls (empty without): the geometry, its wall stencils, and the operators'
+  // coefficients (2D per cell slot for faces, one per cell).
+  geometry::SolidPtr solid_;
+  std::unique_ptr<EmbeddedGeometry<D>> embedded_;
+  std::unique_ptr<WallFlux<D>> wall_flux_;
+  std::vector<double> pressure_faces_, pressure_pins_, viscous_faces_, viscous_cells_;
+  double viscous_lambda_ = 0.0;  // the lambda viscous_cells_ was made for
   bool faces_current_ = false;                  // face_velocity_current()
   bool faces_carried_ = false;                  // face_velocity_carried()
   FaceField<D> kept_faces_;                     // adapt(): uf_ of the tree before

@@ -40,6 +40,15 @@ struct ConstantCells {
   double at(Index /*cell*/) const { return value; }
 };
 
+// lambda = 0 on the cells with fluid and a pin on those without (embedded walls, see
+// multigrid/embedded_coefficients.hpp): the operator is as singular as with ZeroCells on the
+// fluid, which the pins do not reach.
+struct PinnedCells {
+  static constexpr bool kConstant = false;
+  const double* data = nullptr;
+  double at(Index c) const { return data[c]; }
+};
+
 struct CellArray {
   static constexpr bool kConstant = false;
   const double* data = nullptr;

@@ -69,13 +69,20 @@ class EllipticOperator {
   // No Dirichlet side on a non-periodic direction and no lambda: a is defined up to a
   // constant and b must be compatible with the boundary fluxes.
   bool singular() const {
-    if constexpr (std::is_same_v<Lambda, ZeroCells>) {
+    if constexpr (std::is_same_v<Lambda, ZeroCells> || std::is_same_v<Lambda, PinnedCells>) {
       for (int s = 0; s < F; ++s)
         if (!tree_.options().periodic[s / 2] && bc_.side[s].kind == tree::BcKind::dirichlet) return false;
       return true;
     } else {
       return false;
     }
+  }
+
+  // Whether c is pinned out of the null space (PinnedCells: a cell without fluid).
+  bool pinned(Index c) const
+    requires std::is_same_v<Lambda, PinnedCells>
+  {
+    return lambda_.at(c) != 0.0;
   }
 
   // L(a) at leaf c of level l; a must be synced (tree::Tree::sync with bc()).

@@ -105,11 +105,36 @@ bool spans_cells(const tree::Tree<D>& t, std::initializer_list<std::span<double>
   return true;
 }
 
-// Makes r compatible for a singular operator (zero volume mean).
-template <int D>
-void remove_mean(const tree::Tree<D>& t, std::span<double> r) {
-  const double mean = leaf_mean<D>(t, r);
-  t.for_each_leaf([&](tree::Index c) { r[c] -= mean; });
+// Whether cell c is pinned (an operator whose lambda pins the cells without fluid: they are
+// outside its null space, so the means below leave them out).
+template <class Op>
+bool pinned(const Op& op, tree::Index c) {
+  if constexpr (requires { op.pinned(c); }) return op.pinned(c);
+  else return false;
+}
+
+// The volume mean of v over the leaves that are not pinned.
+template <class Op>
+double free_mean(const Op& op, std::span<const double> v) {
+  constexpr int D = Op::kDimension;
+  const auto [sum, volume] = leaf_integral<D>(op.tree(), [&](tree::Index c) { return pinned(op, c) ? 0.0 : v[c]; });
+  if constexpr (requires { op.pinned(tree::Index{}); }) {
+    const auto [free_volume, unused] = leaf_integral<D>(op.tree(), [&](tree::Index c) { return pinned(op, c) ? 0.0 : 1.0; });
+    (void)unused;
+    return free_volume > 0.0 ? sum / free_volume : 0.0;
+  } else {
+    return sum / volume;
+  }
+}
+
+// Subtracts the mean of v over the leaves that are not pinned from them: a residual made
+// compatible for a singular operator, or a solution with its constant fixed.
+template <class Op>
+void remove_mean(const Op& op, std::span<double> v) {
+  const double mean = free_mean(op, v);
+  op.tree().for_each_leaf([&](tree::Index c) {
+    if (!pinned(op, c)) v[c] -= mean;
+  });
 }
 
 }  // namespace detail
@@ -165,13 +190,11 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
     // Distributed: residual() took the maximum over the owned leaves only (a ghost's
     // stencil may reach cells this rank does not have); then over all ranks.
     if (!singular) return t.global_max(worst);
-    detail::remove_mean<D>(t, res);
+    detail::remove_mean(op, res);
     return detail::leaf_max_abs<D>(t, res);
   };
   auto fix_mean = [&] {
-    if (!singular) return;
-    const double mean = detail::leaf_mean<D>(t, a);
-    t.for_each_leaf([&](tree::Index c) { a[c] -= mean; });
+    if (singular) detail::remove_mean(op, a);
   };
 
   MultigridStats stats;
@@ -191,7 +214,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
     } else {
       // z = B r (a cycle writes res on the parents only: the leaves stay for the step).
       vcycle(op, res, da, scratch, opt, {}, restricted);
-      if (singular) detail::remove_mean<D>(t, da);
+      if (singular) detail::remove_mean(op, da);
       double beta = 0.0;
       if (stats.cycles > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
       t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });

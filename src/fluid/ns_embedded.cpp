@@ -1,0 +1,119 @@
+// The flow solver's stages with embedded walls (navier_stokes.hpp, set_solid): the viscous
+// and pressure operators weighted by the fluid fractions, the walls' no-slip flux, the
+// divergence of each cell's fluid part, and nothing carried by closed faces or cells without
+// fluid.
+#include <stdexcept>
+#include <utility>
+
+#include "fluid/multigrid/elliptic_operator.hpp"
+#include "fluid/multigrid/embedded_coefficients.hpp"
+#include "fluid/navier_stokes.hpp"
+
+namespace capsflow::fluid {
+
+template <int D>
+void NavierStokes<D>::set_solid(geometry::SolidPtr solid) {
+  if (!solid) throw std::invalid_argument("NavierStokes::set_solid: no solid");
+  if (properties_) throw std::invalid_argument("embedded walls with variable density or viscosity: not implemented yet");
+  if (!options_.stokes) throw std::invalid_argument("embedded walls with advection (Navier-Stokes): not implemented yet; set stokes");
+  solid_ = std::move(solid);
+  rebuild_embedded();
+}
+
+template <int D>
+void NavierStokes<D>::rebuild_embedded() {
+  embedded_ = std::make_unique<EmbeddedGeometry<D>>(tree_, solid_);
+  wall_flux_ = std::make_unique<WallFlux<D>>(tree_, *embedded_);
+  embedded_face_coefficients<D>(tree_, *embedded_, 1.0 / options_.density, pressure_faces_);
+  embedded_cell_coefficients<D>(tree_, *embedded_, 0.0, pressure_pins_);
+  embedded_face_coefficients<D>(tree_, *embedded_, mu_, viscous_faces_);
+  viscous_cells_.clear();  // they depend on dt: made by the first viscous solve
+  // Nothing flows where there is no fluid (a tree just refined has prolonged values there).
+  const std::span<const double> volume = embedded_->volume();
+  tree_.for_each_leaf([&](Index c) {
+    if (volume[static_cast<std::size_t>(c)] > 0.0) return;
+    for (int d = 0; d < D; ++d) tree_.values(u_[d])[c] = tree_.values(g_[d])[c] = 0.0;
+  });
+  const FaceField<D>& open = embedded_->faces();
+  for (int d = 0; d < D; ++d)
+    for (std::size_t k = 0; k < uf_[d].size(); ++k)
+      if (!(open[d][k] > 0.0)) uf_[d][k] = 0.0;
+}
+
+template <int D>
+MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double theta) {
+  // As variable_viscous_solve, divided by theta, each cell's balance over its fluid part:
+  //   div(mu fs grad u) + walls - cs rho/(theta dt) u = -cs rho/(theta dt) u* - (1-theta)/theta (...)(u^n).
+  std::span<double> u = tree_.values(u_[d]);
+  const double lambda = -options_.density / (theta * dt);
+  if (viscous_cells_.size() != static_cast<std::size_t>(tree_.num_cells()) || viscous_lambda_ != lambda) {
+    embedded_cell_coefficients<D>(tree_, *embedded_, lambda, viscous_cells_);
+    viscous_lambda_ = lambda;
+  }
+  const std::span<const double> volume = embedded_->volume();
+  tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * volume[static_cast<std::size_t>(c)] * u[c]; });
+  const WallTerms<D> walls{wall_flux_.get(), mu_};
+  if (theta < 1.0) {  // explicit part at u^n (shift_by_g), walls at t^n
+    const double t_new = boundary_time_;
+    boundary_time_ = time_;
+    const EllipticOperator<D, FaceArray<D>, ZeroCells, WallTerms<D>> explicit_part(tree_, {viscous_faces_.data()}, {},
+                                                                                    conditions_.velocity[d], walls);
+    shift_by_g(d, -dt);
+    tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
+    explicit_part.apply_leaves(u, div_);
+    shift_by_g(d, dt);
+    const double w = (1.0 - theta) / theta;
+    tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
+    boundary_time_ = t_new;
+  }
+  const EllipticOperator<D, FaceArray<D>, CellArray, WallTerms<D>> op(tree_, {viscous_faces_.data()},
+                                                                       {viscous_cells_.data()}, conditions_.velocity[d], walls);
+  MultigridOptions opt = options_.viscous;
+  opt.tolerance *= options_.density / (theta * dt);
+  return solve(op, u, rhs_, mg_, opt);
+}
+
+template <int D>
+MultigridStats NavierStokes<D>::embedded_projection(FaceField<D>& uf, std::span<double> p, double dt,
+                                                    const MultigridOptions& opt) {
+  const FaceField<D>& open = embedded_->faces();
+  divergence<D>(tree_, uf, div_, &open);  // of each cell's fluid part
+  tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
+  const EllipticOperator<D, FaceArray<D>, PinnedCells> op(tree_, {pressure_faces_.data()}, {pressure_pins_.data()},
+                                                           conditions_.pressure);
+  const MultigridStats s = solve(op, p, rhs_, mg_, opt);  // leaves p synced
+  const double inv_rho = 1.0 / options_.density;
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
+    uf[d][hi] = open[d][hi] > 0.0 ? uf[d][hi] - dt * inv_rho * (p[hi] - p[lo]) / h : 0.0;
+  });
+  return s;
+}
+
+template <int D>
+void NavierStokes<D>::embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g) {
+  // The mean of the open faces' accelerations, weighted by their fluid fractions.
+  const FaceField<D>& open = embedded_->faces();
+  for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {
+    const Index* row = tree_.level(l).face_row(c);
+    for (int d = 0; d < D; ++d) {
+      const Index up = row[2 * d + 1];
+      const double weight = open[d][c] + open[d][up];
+      const double g = weight > 0.0 ? (open[d][c] * gf[d][c] + open[d][up] * gf[d][up]) / weight : 0.0;
+      tree_.values(g_[d])[c] = g;
+      if (!only_g) tree_.values(u_[d])[c] += dt * g;
+    }
+  });
+}
+
+template void NavierStokes<2>::set_solid(geometry::SolidPtr);
+template void NavierStokes<3>::set_solid(geometry::SolidPtr);
+template void NavierStokes<2>::rebuild_embedded();
+template void NavierStokes<3>::rebuild_embedded();
+template MultigridStats NavierStokes<2>::embedded_viscous_solve(int, double, double);
+template MultigridStats NavierStokes<3>::embedded_viscous_solve(int, double, double);
+template MultigridStats NavierStokes<2>::embedded_projection(FaceField<2>&, std::span<double>, double, const MultigridOptions&);
+template MultigridStats NavierStokes<3>::embedded_projection(FaceField<3>&, std::span<double>, double, const MultigridOptions&);
+template void NavierStokes<2>::embedded_centred_gradient(const FaceField<2>&, double, bool);
+template void NavierStokes<3>::embedded_centred_gradient(const FaceField<3>&, double, bool);
+
+}  // namespace capsflow::fluid

@@ -1,0 +1,127 @@
+// The Stokes solver with embedded walls: Poiseuille flow driven by a body force between two
+// walls off the grid and in a circular pipe off the grid, to steady state: error norms and
+// observed orders, the divergence of the cut cells after the projection at the solver's
+// tolerance, nothing flowing through closed faces or in cells without fluid.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "fluid/navier_stokes.hpp"
+#include "flow_sides.hpp"
+
+namespace capsflow::fluid {
+namespace {
+
+using tree::Index;
+using tree::Point;
+using tree::Tree;
+
+struct Errors {
+  double max = 0.0, l1 = 0.0, divergence = 0.0;
+};
+
+// Stokes, mu = 1, f = (1, 0, ...), periodic along x, the brick's other sides walls, run by
+// backward Euler with large steps to the steady state; the streamwise velocity against
+// `exact` at the centres of the leaves with fluid.
+template <int D>
+Errors steady_poiseuille(Tree<D>& t, const geometry::SolidPtr& solid, const std::function<double(const Point<D>&)>& exact) {
+  std::array<SideFlow<D>, 2 * D> sides = testing::all<D>(SideKind::wall);
+  sides[0] = sides[1] = {.kind = SideKind::periodic};
+  FlowOptions<D> o{.Re = 1.0, .stokes = true, .dt = 0.5, .boundaries = sides};
+  o.projection.tolerance = o.viscous.tolerance = 1e-10;
+  o.projection.max_cycles = o.viscous.max_cycles = 100;
+  NavierStokes<D> ns(t, o);
+  ns.set_solid(solid);
+  ns.set_face_force([](const Tree<D>&, FaceField<D>& f) { std::fill(f[0].begin(), f[0].end(), 1.0); });
+  for (int step = 0; step < 14; ++step) {
+    const StepStats s = ns.step();
+    EXPECT_TRUE(s.converged) << "step " << step;
+  }
+  Errors e;
+  const auto volume = ns.embedded()->volume();
+  const FaceField<D>& open = ns.embedded()->faces();
+  for (const Index c : t.leaves()) {
+    const auto k = static_cast<std::size_t>(c);
+    if (!(volume[k] > 0.0)) {
+      for (int d = 0; d < D; ++d) EXPECT_EQ(ns.u(d)[c], 0.0) << "a cell without fluid";
+      continue;
+    }
+    const double err = std::abs(ns.u(0)[c] - exact(t.center(c)));
+    e.max = std::max(e.max, err);
+    e.l1 += err * volume[k] * std::pow(t.cell_size(t.level_of(c)), D);
+    for (int d = 1; d < D; ++d) e.max = std::max(e.max, std::abs(ns.u(d)[c]));
+  }
+  for (int d = 0; d < D; ++d)
+    for (std::size_t k = 0; k < open[d].size(); ++k)
+      if (!(open[d][k] > 0.0)) {
+        EXPECT_EQ(ns.face_velocity()[d][k], 0.0) << "a closed face";
+      }
+  e.divergence = ns.max_divergence();
+  return e;
+}
+
+// The slope of log2(error) against the level, by least squares: with one wall position the
+// cut fractions change from level to level, and so does the error's constant, so the order
+// is read from the trend over several levels (each pair must still converge).
+double fitted_order(const std::vector<double>& errors) {
+  const double n = static_cast<double>(errors.size());
+  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+  for (std::size_t k = 0; k < errors.size(); ++k) {
+    const double x = static_cast<double>(k), y = std::log2(errors[k]);
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+  }
+  return -(n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
+void expect_orders(const std::vector<Errors>& e, const char* what) {
+  std::vector<double> max, l1;
+  for (std::size_t k = 0; k < e.size(); ++k) {
+    std::printf("%s: max %.3e  L1 %.3e  max |div| %.1e", what, e[k].max, e[k].l1, e[k].divergence);
+    if (k > 0) std::printf("  orders %.2f %.2f", std::log2(e[k - 1].max / e[k].max), std::log2(e[k - 1].l1 / e[k].l1));
+    std::printf("\n");
+    // The projection's tolerance is a relative volume change of 1e-10 per step of 0.5.
+    EXPECT_LT(e[k].divergence, 1e-9) << what;
+    max.push_back(e[k].max);
+    l1.push_back(e[k].l1);
+    if (k > 0) {
+      EXPECT_GE(std::log2(e[k - 1].max / e[k].max), 1.0) << what;
+      EXPECT_GE(std::log2(e[k - 1].l1 / e[k].l1), 1.0) << what;
+    }
+  }
+  std::printf("%s: fitted orders %.2f (max) %.2f (L1)\n", what, fitted_order(max), fitted_order(l1));
+  EXPECT_GE(fitted_order(max), 1.5) << what;
+  EXPECT_GE(fitted_order(l1), 1.8) << what;
+}
+
+TEST(EmbeddedFlow, PoiseuilleBetweenWallsOffTheGrid) {
+  const double a = 0.1234, b = 0.8611;  // the walls
+  const auto solid = geometry::unite({geometry::box({-1.0, -1.0, -1.0}, {2.0, a, 1.0}), geometry::box({-1.0, b, -1.0}, {2.0, 2.0, 1.0})});
+  std::vector<Errors> e;
+  for (int level = 5; level <= 8; ++level) {
+    Tree<2> t({.roots = {1, 1}, .periodic = {true, false}, .max_level = level});
+    t.refine_to([level](const tree::Box<2>&) { return level; });
+    e.push_back(steady_poiseuille<2>(t, solid, [=](const Point<2>& x) { return 0.5 * (x[1] - a) * (b - x[1]); }));
+  }
+  expect_orders(e, "channel");
+}
+
+TEST(EmbeddedFlow, PoiseuilleInAPipeOffTheGrid) {
+  const double r = 0.37, y0 = 0.5123, z0 = 0.4871;
+  const auto wall = geometry::complement(geometry::cylinder({.centre = {0.0, y0, z0}, .radius = r}));
+  auto exact = [=](const Point<3>& x) { return ((r * r) - (x[1] - y0) * (x[1] - y0) - (x[2] - z0) * (x[2] - z0)) / 4.0; };
+  std::vector<Errors> e;
+  for (int level = 4; level <= 5; ++level) {
+    Tree<3> t({.roots = {1, 1, 1}, .periodic = {true, false, false}, .max_level = level});
+    t.refine_to([level](const tree::Box<3>&) { return level; });
+    e.push_back(steady_poiseuille<3>(t, wall, exact));
+  }
+  expect_orders(e, "pipe");
+}
+
+}  // namespace
+}  // namespace capsflow::fluid
