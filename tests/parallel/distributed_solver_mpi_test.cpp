@@ -402,8 +402,9 @@ void expect_same_rows(const std::vector<Row>& serial, const std::vector<Row>& di
 // (velocity wavelets) before every such step.
 template <int D>
 std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector<std::vector<double>>* final_u = nullptr,
-                     int adapt_every = 0, int min_level = 0) {
+                     int adapt_every = 0, int min_level = 0, const geometry::SolidPtr& solid = nullptr) {
   NavierStokes<D> ns(t, o);
+  if (solid) ns.set_solid(solid);
   std::vector<Row> rows;
   for (int s = 0; s < steps; ++s) {
     if (adapt_every > 0 && s % adapt_every == 0) {
@@ -420,16 +421,16 @@ std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector
 
 template <int D>
 void check_flow(const TreeOptions<D>& to, const std::function<int(const Box<D>&)>& levels, const FlowOptions<D>& o,
-                int steps, int adapt_every = 0, int min_level = 0) {
+                int steps, int adapt_every = 0, int min_level = 0, const geometry::SolidPtr& solid = nullptr) {
   const parallel::Comm comm = parallel::Comm::world();
   Tree<D> serial(to);
   serial.refine_to(levels);
   std::vector<std::vector<double>> u_serial, u;
-  const auto rows_serial = run(serial, o, steps, &u_serial, adapt_every, min_level);
+  const auto rows_serial = run(serial, o, steps, &u_serial, adapt_every, min_level, solid);
   Tree<D> fresh(to);
   fresh.refine_to(levels);
   const auto forest = distribute(comm, fresh);
-  const auto rows = run(fresh, o, steps, &u, adapt_every, min_level);
+  const auto rows = run(fresh, o, steps, &u, adapt_every, min_level, solid);
   expect_same_rows<D>(rows_serial, rows);
   double worst = 0.0, scale = 0.0;
   for (const Index c : fresh.owned_leaves()) {
@@ -466,6 +467,19 @@ TEST(DistributedFlow, CavityGradedNavierStokesMatchesSerial2D) {
 TEST(DistributedFlow, CavityStokesMatchesSerial3D) {
   check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>&) { return 4; },
                 {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<3>()}, 5);
+}
+
+// Embedded walls: a cylinder (the section of a ball) in the lid-driven cavity, on a graded
+// tree, adapted every 4 steps (the geometry and its operators rebuilt on every rank).
+TEST(DistributedFlow, CavityAroundACylinderStokesMatchesSerial2D) {
+  check_flow<2>({.roots = {1, 1}, .max_level = 7}, [](const Box<2>& b) { return b.hi[1] > 0.8 ? 6 : 5; },
+                {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<2>()}, 12, 4, 4,
+                geometry::sphere({0.47, 0.52, 0.0}, 0.21));
+}
+
+TEST(DistributedFlow, CavityAroundABallStokesMatchesSerial3D) {
+  check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>&) { return 4; },
+                {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<3>()}, 5, 0, 0, geometry::sphere({0.48, 0.51, 0.46}, 0.23));
 }
 
 TEST(DistributedFlow, CavityNavierStokesMatchesSerial3D) {
