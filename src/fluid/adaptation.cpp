@@ -41,7 +41,7 @@ Adaptation<D>::Adaptation(NavierStokes<D>& ns, AdaptationOptions options) : ns_(
 template <int D>
 int Adaptation<D>::required_level(const tree::Box<D>& b) const {
   int r = bodies_ ? bodies_->required_level(b) : 0;
-  if (options_.wall_level > r && touches_wall<D>(ns_.tree().options(), ns_.options().boundaries, b))
+  if (options_.wall_level > r && touches_wall<D>(ns_.tree().options(), ns_.options().boundaries, ns_.embedded(), b))
     r = options_.wall_level;
   return r;
 }

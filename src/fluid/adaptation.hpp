@@ -4,8 +4,8 @@
 //
 // Levels: Basilisk's adapt_wavelet on the velocity components (refine above the tolerance,
 // coarsen below tolerance / 1.5, NavierStokes::adapt), never below min_level, plus forced
-// levels: adapt.wall_level on the leaves touching a wall (walls.hpp: the no-slip sides) and
-// whatever the immersed bodies ask for (BodyRefinement: the capsules' membrane bands at the
+// levels: adapt.wall_level on the leaves touching a wall (walls.hpp: the no-slip sides and
+// the embedded walls) and whatever the immersed bodies ask for (BodyRefinement: the capsules' membrane bands at the
 // max level). After an adaptation the bodies' stencils must exist; if one still misses a
 // cell (one adapt refines a leaf by one level only), forced refinement passes follow.
 //

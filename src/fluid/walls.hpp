@@ -1,11 +1,12 @@
 #pragma once
 // Walls: the boundaries where the flow sticks (no slip), so that boundary layers form there
-// and adapt.wall_level refines them. Today these are the brick's sides of kind wall and
-// moving_wall; inflow, outflow, prescribed and periodic sides are not walls (the flow
-// crosses them). Embedded walls will be added here, so that everything asking "is this a
-// wall" keeps one answer.
+// and adapt.wall_level refines them: the brick's sides of kind wall and moving_wall
+// (inflow, outflow, prescribed and periodic sides are not walls: the flow crosses them),
+// and the embedded walls of solids inside the brick (fluid/embedded_geometry.hpp), so that
+// everything asking "is this a wall" has one answer.
 #include <array>
 
+#include "fluid/embedded_geometry.hpp"
 #include "fluid/flow_boundary.hpp"
 #include "tree/tree.hpp"
 
@@ -18,6 +19,13 @@ namespace capsflow::fluid {
 template <int D>
 [[nodiscard]] bool touches_wall(const tree::TreeOptions<D>& tree, const std::array<SideFlow<D>, 2 * D>& sides,
                                 const tree::Box<D>& b);
+
+// The same, or the box may reach an embedded wall (`embedded` may be null: none).
+template <int D>
+[[nodiscard]] bool touches_wall(const tree::TreeOptions<D>& tree, const std::array<SideFlow<D>, 2 * D>& sides,
+                                const EmbeddedGeometry<D>* embedded, const tree::Box<D>& b) {
+  return touches_wall<D>(tree, sides, b) || (embedded && embedded->near_wall(b, 0.0));
+}
 
 extern template bool touches_wall<2>(const tree::TreeOptions<2>&, const std::array<SideFlow<2>, 4>&,
                                      const tree::Box<2>&);

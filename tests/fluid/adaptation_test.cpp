@@ -34,6 +34,28 @@ struct Channel {
   NavierStokes<2> ns{tree, flow()};
 };
 
+// Embedded walls are walls: the leaves they cut reach wall_level, those far from them not.
+TEST(Adaptation, InitialRefinementForcesEmbeddedWalls) {
+  Channel c;
+  c.ns.set_solid(geometry::sphere({0.93, 0.47, 0.0}, 0.2));
+  Adaptation<2> a(c.ns, {.min_level = 2, .wall_level = 6});
+  (void)a.refine_initial();
+  int cut = 0;
+  for (const tree::Index i : c.tree.leaves()) {
+    const tree::Point<2> x = c.tree.center(i);
+    const double r = std::hypot(x[0] - 0.93, x[1] - 0.47);
+    const int l = c.tree.level_of(i);
+    if (c.ns.embedded()->wall_area(i) > 0.0) {
+      EXPECT_EQ(l, 6) << "a leaf on the embedded wall";
+      ++cut;
+    }
+    if (std::abs(r - 0.2) > 0.25 && x[1] > 0.2 && x[1] < 0.8) {
+      EXPECT_LE(l, 3) << "far from every wall";
+    }
+  }
+  EXPECT_GT(cut, 0);
+}
+
 TEST(Adaptation, InitialRefinementForcesWallsNotInflowOrOutflow) {
   Channel c;
   Adaptation<2> a(c.ns, {.min_level = 2, .wall_level = 5});
