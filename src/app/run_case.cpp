@@ -98,6 +98,11 @@ class FlowRun {
       : case_(c), request_(req), out_(std::move(out)), comm_(parallel::Comm::world()), tree_(io::tree_options<D>(c)),
         ns_(tree_, flow_options<D>(c)),
         adaptation_(ns_, adaptation_options(c.adapt)), progress_(req.quiet) {
+    // The solids first: the initial refinement reaches adapt.wall_level along their walls.
+    if (!c.solids.empty()) {
+      solid_ = io::make_solid(c, req.case_file.string());
+      ns_.set_solid(solid_);
+    }
     if constexpr (D == 3)
       if (!c.capsules.empty()) {
         capsules_ = std::make_unique<CapsuleSet>(c, ns_);
@@ -155,6 +160,8 @@ class FlowRun {
       if (capsules_) capsules_->distribute();
       if (!restart_faces_.empty()) restore_faces();
     }
+    // The embedded walls on the tree the run starts from (a checkpoint's, a distributed one).
+    if (solid_) ns_.set_solid(solid_);
     // Diagnostics and the series are rank 0's.
     std::optional<io::DiagnosticsCsv> diagnostics, capsule_rows;
     std::optional<io::PvdSeries> series;
@@ -397,7 +404,8 @@ class FlowRun {
   void snapshot(std::optional<io::PvdSeries>& series, long step) {
     std::vector<std::span<const double>> u;
     for (int d = 0; d < D; ++d) u.push_back(tree_.values(ns_.velocity(d)));
-    const std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {tree_.values(ns_.pressure())}}};
+    std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {tree_.values(ns_.pressure())}}};
+    if (ns_.embedded()) fields.push_back({"fluid_fraction", {ns_.embedded()->volume()}});
     const std::string file = numbered("fluid", step, forest_ ? "pvtu" : "vtu");
     if (forest_) {
       io::write_tree_pvtu_piece<D>(out_ / file, tree_, fields, comm_.rank(), comm_.size());
@@ -460,6 +468,7 @@ class FlowRun {
         });
       }
   }
+  geometry::SolidPtr solid_;  // the [[solid]] tables, or null
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   fluid::TimeStep<D> time_step_{ns_};  // stages 1-5; the bodies (capsules) attach to it
@@ -491,14 +500,15 @@ void run_case(const RunRequest& req) {
       throw io::CaseError(fmt::format("{}: capsule[{}].staggered = false on {} MPI ranks: the cell-centred coupling runs on "
                                       "one rank only (run without mpirun, or with the default staggered coupling)",
                                       req.case_file.string(), k, comm.size()));
-  // Solids are read and checked (an STL file's defects are reported now), but the operators
-  // do not take embedded walls yet: refused rather than run as if the solids were not there.
-  if (!c.solids.empty()) {
-    (void)io::make_solid(c, req.case_file.string());
-    throw io::CaseError(fmt::format("{}: solid[0]: the [[solid]] tables are read and checked, but the flow solver does "
-                                    "not apply embedded walls yet (issue 28, docs/walls.md): remove them to run",
+  // Embedded walls run in Stokes flow without capsules for now (docs/walls.md): the other
+  // combinations are refused rather than run as if the solids were not there.
+  if (!c.solids.empty() && !c.fluid.stokes)
+    throw io::CaseError(fmt::format("{}: solid[0]: embedded walls run with fluid.stokes = true only for now (advection "
+                                    "past embedded walls is not implemented yet; docs/walls.md)",
                                     req.case_file.string()));
-  }
+  if (!c.solids.empty() && !c.capsules.empty())
+    throw io::CaseError(fmt::format("{}: solid[0]: capsules next to embedded walls are not implemented yet (docs/walls.md)",
+                                    req.case_file.string()));
   bool created = false;
   on_root(comm, [&] { created = prepare_output_dir(out, req.force, req.restart); });
   install_interrupt_handlers();

@@ -143,6 +143,25 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
   expect_restart_repeats_run(dir, base, "checkpoint_000010.h5", full);
 }
 
+// The same with an embedded wall (a cylinder in the cavity, Stokes): the geometry is rebuilt
+// on the checkpoint's tree, and the snapshots carry the fluid fraction.
+TEST(AppRestart, RestartWithAnEmbeddedWallRepeatsTheRunExactly) {
+  const fs::path dir = scratch("restart_solid");
+  const fs::path file = write(dir, "cavity_solid.toml",
+                              slurp(fs::path(CAPSFLOW_CASES_DIR) / "cavity_2d.toml") +
+                                  "\n[[solid]]\nshape = \"sphere\"\ncentre = [0.47, 0.55]\nradius = 0.2\n");
+  const std::string base = "run " + file.string() +
+                           " --quiet --set fluid.stokes=true --set fluid.Re=10 --set time.t_end=0.2 --set time.cfl=0 --set time.dt=0.008 "
+                           "--set output.checkpoint=true --set output.checkpoint_interval=10 --set adapt.interval=3 "
+                           "--set adapt.wall_level=7 --set output.interval=5 ";
+  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
+  ASSERT_GT(full.size(), 20u);
+  EXPECT_NE(slurp(dir / "full" / "fluid_000005.vtu").find("fluid_fraction"), std::string::npos);
+  expect_restart_repeats_run(dir, base, "checkpoint_000010.h5", full);
+}
+
 }  // namespace
 }  // namespace capsflow::app
 
