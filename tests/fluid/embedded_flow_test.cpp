@@ -8,7 +8,9 @@
 #include <cstdio>
 #include <vector>
 
+#include "fluid/duct_profile.hpp"
 #include "fluid/navier_stokes.hpp"
+#include "geometry/triangle_surface.hpp"
 #include "flow_sides.hpp"
 
 namespace capsflow::fluid {
@@ -121,6 +123,59 @@ TEST(EmbeddedFlow, PoiseuilleInAPipeOffTheGrid) {
     e.push_back(steady_poiseuille<3>(t, wall, exact));
   }
   expect_orders(e, "pipe");
+}
+
+// The box [lo, hi] as a closed surface of 12 triangles, counter-clockwise seen from outside
+// (an STL file's solid once read: io tests read the same box from files).
+geometry::SolidPtr triangulated_box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  geometry::TriangleMesh mesh;
+  mesh.vertices.resize(3, 8);
+  for (int v = 0; v < 8; ++v) mesh.vertices.col(v) = Eigen::Vector3d((v & 1) ? hi[0] : lo[0], (v & 2) ? hi[1] : lo[1], (v & 4) ? hi[2] : lo[2]);
+  mesh.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                    {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  return geometry::triangle_surface(std::move(mesh));
+}
+
+// Flow in the square duct |y|, |z| < 1 driven by a body force, once between the brick's own
+// walls and once inside a triangulated box (the fluid inside it, the brick a quarter of the
+// duct's half-width larger all round, so the walls lie off the grid), at two resolutions:
+// the flow rates against the exact series (White, eq. 3-48). Measured, relative errors:
+//   level 5: brick 3.8e-3, triangulated 2.7e-2;  level 6: brick 9.4e-4, triangulated 5.0e-3.
+// Both converge at second order or better, the cut cells with a constant about five times
+// the brick's: the linear wall gradient leaves the flow's curvature across the wall in it
+// (docs/walls.md). The 1e-3 between the two is not met at these resolutions.
+double duct_flow_error(int level, bool embedded_walls) {
+  const double extent = embedded_walls ? 1.25 : 1.0;
+  Tree<3> t({.roots = {1, 1, 1}, .root_size = 2.0 * extent, .origin = {-extent, -extent, -extent},
+             .periodic = {true, false, false}, .max_level = level});
+  t.refine_to([level](const tree::Box<3>&) { return level; });
+  std::array<SideFlow<3>, 6> sides = testing::all<3>(SideKind::wall);
+  sides[0] = sides[1] = {.kind = SideKind::periodic};
+  FlowOptions<3> o{.Re = 1.0, .stokes = true, .dt = 0.5, .boundaries = sides};
+  o.projection.tolerance = o.viscous.tolerance = 1e-10;
+  NavierStokes<3> ns(t, o);
+  if (embedded_walls) ns.set_solid(geometry::complement(triangulated_box({-3.0, -1.0, -1.0}, {3.0, 1.0, 1.0})));
+  ns.set_face_force([](const Tree<3>&, FaceField<3>& f) { std::fill(f[0].begin(), f[0].end(), 1.0); });
+  for (int step = 0; step < 14; ++step) EXPECT_TRUE(ns.step().converged);
+  // Through the plane x = 0, a plane of cell faces: the fluid faces' flux.
+  double q = 0.0;
+  for (const Index c : t.leaves()) {
+    const tree::Box<3> b = t.box(c);
+    if (std::abs(b.lo[0]) > 1e-12) continue;
+    const double open = embedded_walls ? ns.embedded()->faces()[0][static_cast<std::size_t>(c)] : 1.0;
+    q += open * ns.face_velocity()[0][static_cast<std::size_t>(c)] * (b.hi[1] - b.lo[1]) * (b.hi[2] - b.lo[2]);
+  }
+  return q / duct_flow_rate(1.0, 1.0) - 1.0;
+}
+
+TEST(EmbeddedFlow, ATriangulatedDuctConvergesToTheDuctFlow) {
+  const double brick5 = duct_flow_error(5, false), brick6 = duct_flow_error(6, false);
+  const double cut5 = duct_flow_error(5, true), cut6 = duct_flow_error(6, true);
+  std::printf("duct flow rate, relative errors: brick %.2e %.2e, triangulated %.2e %.2e (levels 5, 6)\n", brick5, brick6,
+              cut5, cut6);
+  EXPECT_LT(std::abs(brick6), 1e-3);
+  EXPECT_LT(std::abs(cut6), 6e-3);
+  EXPECT_GE(std::log2(std::abs(cut5 / cut6)), 1.5) << "the triangulated duct converges";
 }
 
 }  // namespace
