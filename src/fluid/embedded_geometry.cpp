@@ -212,10 +212,18 @@ void EmbeddedGeometry<D>::make_coarse_consistent(int l) {
 template <int D>
 void EmbeddedGeometry<D>::collect_walls() {
   cut_cells_.assign(static_cast<std::size_t>(tree_.depth() + 1), {});
+  uniform_.assign(static_cast<std::size_t>(tree_.num_cells()), 0);
   for (int l = 0; l <= tree_.depth(); ++l) {
     const tree::Level<D>& lv = tree_.level(l);
-    for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
-      if (wall_area_[static_cast<std::size_t>(c)] > 0.0) cut_cells_[static_cast<std::size_t>(l)].push_back(c);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
+      const auto s = static_cast<std::size_t>(c);
+      if (wall_area_[s] > 0.0) cut_cells_[static_cast<std::size_t>(l)].push_back(c);
+      bool open = volume_[s] == 1.0 && wall_area_[s] == 0.0;
+      const Index* row = lv.face_row(c);
+      for (int d = 0; d < D && open; ++d)
+        open = faces_[d][s] == 1.0 && faces_[d][static_cast<std::size_t>(row[2 * d + 1])] == 1.0;
+      uniform_[s] = open ? 1 : 0;
+    }
   }
 }
 

@@ -26,6 +26,7 @@
 // ghosts take their owners' values, so a cell that is a parent on its owner but a leaf in
 // another rank's local tree reads the same fractions everywhere.
 #include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -57,6 +58,10 @@ class EmbeddedGeometry {
   double wall_area(Index c) const { return wall_area_[static_cast<std::size_t>(c)]; }
   std::array<double, D> wall_normal_area(Index c) const;  // integral of n (into the solid)
   tree::Point<D> wall_centroid(Index c) const;
+  // Per cell slot, 1 for the active cells away from the walls: all fluid, every face open,
+  // no wall. The operators take their stencils as the brick's (coefficients.hpp,
+  // EmbeddedFaces).
+  std::span<const std::uint8_t> uniform() const { return uniform_; }
   // The active cells of level l that the wall cuts (wall_area > 0), in index order.
   std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
 
@@ -74,7 +79,8 @@ class EmbeddedGeometry {
   FaceField<D> faces_;
   std::vector<double> wall_area_;
   std::array<std::vector<double>, D> wall_centroid_;  // relative to the cell's lower corner, absolute units
-  std::vector<std::int8_t> side_;  // +1 wholly fluid, -1 wholly solid (and so its children), 0 near the wall
+  std::vector<std::int8_t> side_;
+  std::vector<std::uint8_t> uniform_;  // +1 wholly fluid, -1 wholly solid (and so its children), 0 near the wall
   std::vector<std::vector<Index>> cut_cells_;
 };
 

@@ -53,11 +53,12 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
   const std::span<const double> volume = embedded_->volume();
   tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * volume[static_cast<std::size_t>(c)] * u[c]; });
   const WallTerms<D> walls{wall_flux_.get(), mu_};
+  const std::uint8_t* uniform = embedded_->uniform().data();
   if (theta < 1.0) {  // explicit part at u^n (shift_by_g), walls at t^n
     const double t_new = boundary_time_;
     boundary_time_ = time_;
-    const EllipticOperator<D, FaceArray<D>, ZeroCells, WallTerms<D>> explicit_part(tree_, {viscous_faces_.data()}, {},
-                                                                                    conditions_.velocity[d], walls);
+    const EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>> explicit_part(
+        tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls);
     shift_by_g(d, -dt);
     tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
     explicit_part.apply_leaves(u, div_);
@@ -66,8 +67,8 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
     tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
     boundary_time_ = t_new;
   }
-  const EllipticOperator<D, FaceArray<D>, CellArray, WallTerms<D>> op(tree_, {viscous_faces_.data()},
-                                                                       {viscous_cells_.data()}, conditions_.velocity[d], walls);
+  const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
+      tree_, {mu_, viscous_faces_.data(), uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);
   MultigridOptions opt = options_.viscous;
   opt.tolerance *= options_.density / (theta * dt);
   return solve(op, u, rhs_, mg_, opt);
@@ -79,8 +80,9 @@ MultigridStats NavierStokes<D>::embedded_projection(FaceField<D>& uf, std::span<
   const FaceField<D>& open = embedded_->faces();
   divergence<D>(tree_, uf, div_, &open);  // of each cell's fluid part
   tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
-  const EllipticOperator<D, FaceArray<D>, PinnedCells> op(tree_, {pressure_faces_.data()}, {pressure_pins_.data()},
-                                                           conditions_.pressure);
+  const EllipticOperator<D, EmbeddedFaces<D>, PinnedCells> op(
+      tree_, {1.0 / options_.density, pressure_faces_.data(), embedded_->uniform().data()}, {pressure_pins_.data()},
+      conditions_.pressure);
   const MultigridStats s = solve(op, p, rhs_, mg_, opt);  // leaves p synced
   const double inv_rho = 1.0 / options_.density;
   for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {

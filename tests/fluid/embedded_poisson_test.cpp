@@ -39,8 +39,8 @@ Result solve_poisson(const Tree<D>& t, const geometry::SolidPtr& solid, const st
   std::vector<double> alpha, lambda;
   embedded_face_coefficients<D>(t, g, 1.0, alpha);
   embedded_cell_coefficients<D>(t, g, 0.0, lambda);
-  const EllipticOperator<D, FaceArray<D>, CellArray, WallTerms<D>> op(
-      t, {alpha.data()}, {lambda.data()}, tree::BoundaryConditions<D>::all(tree::BcKind::dirichlet), {&walls, 1.0});
+  const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
+      t, {1.0, alpha.data(), g.uniform().data()}, {0.0, lambda.data(), g.uniform().data()}, tree::BoundaryConditions<D>::all(tree::BcKind::dirichlet), {&walls, 1.0});
   std::vector<double> u(static_cast<std::size_t>(t.num_cells()), 0.0), b(u.size(), 0.0);
   for (const Index c : t.leaves()) b[static_cast<std::size_t>(c)] = -g.volume()[static_cast<std::size_t>(c)];
   MultigridWorkspace ws;

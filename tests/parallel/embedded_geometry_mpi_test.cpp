@@ -73,8 +73,8 @@ fluid::MultigridStats solve_pipe(const Tree<D>& t, const geometry::SolidPtr& wal
   std::vector<double> alpha, lambda;
   embedded_face_coefficients<D>(t, g, 1.0, alpha);
   embedded_cell_coefficients<D>(t, g, 0.0, lambda);
-  const EllipticOperator<D, FaceArray<D>, CellArray, WallTerms<D>> op(
-      t, {alpha.data()}, {lambda.data()}, BoundaryConditions<D>::all(BcKind::dirichlet), {&walls, 1.0});
+  const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
+      t, {1.0, alpha.data(), g.uniform().data()}, {0.0, lambda.data(), g.uniform().data()}, BoundaryConditions<D>::all(BcKind::dirichlet), {&walls, 1.0});
   u.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
   std::vector<double> b(u.size(), 0.0);
   for (const Index c : t.owned_leaves()) b[static_cast<std::size_t>(c)] = -g.volume()[static_cast<std::size_t>(c)];

@@ -6,6 +6,7 @@
 // A leaf's face value is the coefficient at the centre of that face; a parent's is the
 // average of its children's values on the same side (so coarse levels see the mean
 // conductance of the fine faces they cover).
+#include <cstdint>
 #include <functional>
 #include <span>
 #include <vector>
@@ -31,6 +32,7 @@ struct FaceArray {
 
 struct ZeroCells {
   static constexpr bool kConstant = true;
+  double uniform_value() const { return 0.0; }
   double at(Index /*cell*/) const { return 0.0; }
 };
 
@@ -40,12 +42,36 @@ struct ConstantCells {
   double at(Index /*cell*/) const { return value; }
 };
 
+// Embedded walls (multigrid/embedded_coefficients.hpp): the fluid's own coefficient `value`
+// on the uniform cells (every face open, no wall: EmbeddedGeometry::uniform), the array
+// elsewhere. The operator takes the uniform cells' stencil as constant (no array read), so
+// the cells away from the walls cost what the brick's cells cost.
+template <int D>
+struct EmbeddedFaces {
+  static constexpr bool kConstant = false;
+  double value = 1.0;
+  const double* data = nullptr;        // 2D values per cell slot
+  const std::uint8_t* full = nullptr;  // per cell slot: uniform
+  bool uniform(Index c) const { return full[c] != 0; }
+  double at(Index c, int face) const { return full[c] ? value : data[static_cast<std::size_t>(c) * (2 * D) + face]; }
+};
+
+struct EmbeddedCells {
+  static constexpr bool kConstant = false;
+  double value = 0.0;
+  const double* data = nullptr;
+  const std::uint8_t* full = nullptr;
+  double uniform_value() const { return value; }
+  double at(Index c) const { return full[c] ? value : data[c]; }
+};
+
 // lambda = 0 on the cells with fluid and a pin on those without (embedded walls, see
 // multigrid/embedded_coefficients.hpp): the operator is as singular as with ZeroCells on the
 // fluid, which the pins do not reach.
 struct PinnedCells {
   static constexpr bool kConstant = false;
   const double* data = nullptr;
+  double uniform_value() const { return 0.0; }
   double at(Index c) const { return data[c]; }
 };
 

@@ -187,6 +187,8 @@ class EllipticOperator {
 
  private:
   static constexpr bool kConstantDiagonal = Alpha::kConstant && Lambda::kConstant;
+  // Embedded walls: cells whose stencil is the fluid's constant one (EmbeddedFaces).
+  static constexpr bool kUniformCells = requires(const Alpha& alpha) { alpha.uniform(Index{}); };
   static_assert(!Walls::kActive || !Alpha::kConstant, "embedded walls need the face fractions in the face coefficients");
 
   bool spans_cells(std::span<const double> v) const { return v.size() == static_cast<std::size_t>(tree_.num_cells()); }
@@ -202,6 +204,10 @@ class EllipticOperator {
     Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
       if constexpr (Alpha::kConstant) alpha = op.alpha_.value;
       if constexpr (kConstantDiagonal) inverse = 1.0 / (F * alpha - h2 * op.lambda_.at(0));
+      if constexpr (kUniformCells) {
+        alpha = op.alpha_.value;
+        inverse = 1.0 / (F * alpha - h2 * op.lambda_.uniform_value());
+      }
     }
   };
 
@@ -240,6 +246,13 @@ class EllipticOperator {
   double plain(Index c, double inv_h2, std::span<const double> a, Neighbor nb) const {
     const double ac = a[c];
     double sum = 0.0;
+    if constexpr (kUniformCells) {
+      if (alpha_.uniform(c)) {
+#pragma GCC unroll 6
+        for (int k = 0; k < F; ++k) sum += a[nb(k)];
+        return alpha_.value * (sum - F * ac) * inv_h2 + lambda_.uniform_value() * ac;
+      }
+    }
     if constexpr (Alpha::kConstant) {
 #pragma GCC unroll 6
       for (int k = 0; k < F; ++k) sum += a[nb(k)];
@@ -357,6 +370,13 @@ class EllipticOperator {
   double updated(Index c, const Diagonal& dg, std::span<const double> da, std::span<const double> res, Neighbor nb) const {
     const double h2 = dg.h2;
     double off = 0.0, diag = 0.0;
+    if constexpr (kUniformCells) {
+      if (alpha_.uniform(c)) {
+#pragma GCC unroll 6
+        for (int k = 0; k < F; ++k) off += da[nb(k)];
+        return (dg.alpha * off - h2 * res[c]) * dg.inverse;
+      }
+    }
     if constexpr (Alpha::kConstant) {
       off = da[nb(0)];
 #pragma GCC unroll 6
