@@ -506,6 +506,10 @@ void run_case(const RunRequest& req) {
     throw io::CaseError(fmt::format("{}: solid[0]: embedded walls run with fluid.stokes = true only for now (advection "
                                     "past embedded walls is not implemented yet; docs/walls.md)",
                                     req.case_file.string()));
+  if (!c.solids.empty() && c.fluid.carry_faces)
+    throw io::CaseError(fmt::format("{}: solid[0]: embedded walls with fluid.carry_faces = true are not implemented yet "
+                                    "(docs/walls.md)",
+                                    req.case_file.string()));
   if (!c.solids.empty() && !c.capsules.empty())
     throw io::CaseError(fmt::format("{}: solid[0]: capsules next to embedded walls are not implemented yet (docs/walls.md)",
                                     req.case_file.string()));

@@ -170,8 +170,8 @@ class NavierStokes {
   // viscous and pressure operators take the fluid fractions and the walls' fluxes
   // (multigrid/wall_flux.hpp), the divergence is that of each cell's fluid part, faces
   // without fluid carry no velocity and cells without fluid none. Rebuilt by every adapt().
-  // Stokes only for now, with constant properties (std::invalid_argument otherwise, at the
-  // first step). Collective on N ranks.
+  // Stokes only for now, with constant properties and without carry_faces
+  // (std::invalid_argument otherwise). Collective on N ranks.
   void set_solid(geometry::SolidPtr solid);
   // The embedded walls, or nullptr.
   const EmbeddedGeometry<D>* embedded() const { return embedded_.get(); }
