@@ -5,7 +5,8 @@
 #     repartitioned after every adaptation) on 3 ranks, writes the same diagnostics (every
 #     column but the wall time), the same cells_final.csv and the same snapshots' count as
 #     the run without mpirun;
-#     the 3D duct (adaptive) on 4 ranks the same;
+#     the 3D duct (adaptive) on 4 ranks the same, and the constricted channel (embedded walls)
+#     on 3 ranks;
 #  2. a checkpoint written on 2 ranks restarts on 3 and ends where the uninterrupted run ends
 #     (each rank reads its share of the rows); one of format version 2 restarts on 2 as on 1;
 #  3. carried faces (fluid.carry_faces) on 2 and 3 ranks, uniform and adaptive, as one rank;
@@ -82,6 +83,11 @@ refused() {
 }
 
 matches_one_rank adaptive-cavity 3 run "$cases/cavity_2d.toml" --set time.t_end=0.3 --set output.interval=10 --quiet
+
+# Embedded walls: the constricted channel (a slab pierced by a circular throat, refined along
+# its walls) on 3 ranks.
+matches_one_rank constriction 3 run "$cases/constriction_stokes.toml" --set time.t_end=0.1 --set output.vtu=false \
+  --set output.cells_csv=true --quiet
 
 # 3D: the square duct (inflow profile, wall-refined, adapted every 5 steps) on 4 ranks; the
 # initial refinement runs on the distributed tree (each rank refines its part of a coarse start).
