@@ -202,9 +202,20 @@ void EmbeddedGeometry<D>::make_coarse_consistent(int l) {
     }
     volume_[s] = volume / C;
     wall_area_[s] = area;
+    const Index* row = lv.face_row(c);
     for (int d = 0; d < D; ++d) {
       faces_[d][s] = lower_faces_mean(d, first);
       wall_centroid_[d][s] = area > 0.0 ? moment[d] / area : 0.0;
+      // The face on an upper side of the brick is the slot of the boundary cell beyond it,
+      // which no parent rule reaches: the mean of the children's faces there too.
+      const Index up = row[2 * d + 1];
+      if (up >= lv.boundary_begin()) {
+        const tree::Level<D>& fine = tree_.level(l + 1);
+        double sum = 0.0;
+        for (int b = 0; b < C; ++b)
+          if (tree::child_bit(b, d)) sum += faces_[d][static_cast<std::size_t>(fine.face_row(first + b)[2 * d + 1])];
+        faces_[d][static_cast<std::size_t>(up)] = sum / (C / 2);
+      }
     }
   }
 }

@@ -178,6 +178,36 @@ void CapsuleCoupling::fail_stencil(int step, int k, const StencilError& e) const
        Cause::band);
 }
 
+double CapsuleCoupling::embedded_wall_reach(int k) const {
+  const KernelChoice& kc = kernels_[static_cast<std::size_t>(k)];
+  const bool smoothed = kc.staggered && kc.divergence_free;
+  const int support = std::max(support_of(kc.spread, smoothed), support_of(kc.interpolate, smoothed));
+  // Stencil cells lie within support/2 cells of the node along each axis, their faces half
+  // a cell further: the box's half-diagonal, plus a cell for the faces of staggered stencils.
+  const double dx = ns_.tree().cell_size(ns_.tree().max_level());
+  return (0.5 * support + 1.5) * dx * std::sqrt(3.0);
+}
+
+void CapsuleCoupling::check_embedded_walls(int step, int k, const Eigen::Matrix3Xd& at) const {
+  const fluid::EmbeddedGeometry<3>* walls = ns_.embedded();
+  if (walls == nullptr) return;
+  const double reach = embedded_wall_reach(k);
+  // One distance for a membrane far from every wall: phi is 1-Lipschitz, so the nodes lie at
+  // least phi(centre) - (their farthest distance from the centre) from the walls.
+  const Eigen::Vector3d centre = at.rowwise().mean();
+  const double extent = (at.colwise() - centre).colwise().norm().maxCoeff();
+  if (walls->signed_distance({centre[0], centre[1], centre[2]}) - extent > reach) return;
+  for (Eigen::Index n = 0; n < at.cols(); ++n) {
+    const double distance = walls->signed_distance({at(0, n), at(1, n), at(2, n)});
+    if (!(distance > reach))
+      fail(step,
+           fmt::format("capsule {}: node {} at ({:.6g}, {:.6g}, {:.6g}) came within the immersed-boundary kernel's reach "
+                       "({:.4g}) of an embedded wall (its distance {:.4g})",
+                       k, n, at(0, n), at(1, n), at(2, n), reach, distance),
+           Cause::wall);
+  }
+}
+
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
   int r = 0;
   if (distributed()) {
@@ -271,6 +301,7 @@ void CapsuleCoupling::compute_forces(int step) {
   for (int k = 0; k < num_capsules(); ++k) {
     if (!owns(k)) continue;
     Capsule& c = capsule(k);
+    check_embedded_walls(step, k, stage_positions(c));
     try {
       c.energy = c.model.compute_forces(stage_positions(c), c.forces);
     } catch (const membrane::ElementError& e) {

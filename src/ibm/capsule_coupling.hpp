@@ -247,6 +247,12 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // Smallest over the capsules; 0 without capsules.
   [[nodiscard]] double stability_limit() const;
   static constexpr double kInertialLimit = 0.53, kViscousLimit = 0.42;
+  // Embedded walls (fluid/embedded_geometry.hpp): the distance from a node of capsule k
+  // within which an embedded wall may cut a face of its stencils: the half-diagonal of its
+  // widest stencil box at the max level. Capsules stay farther than this from embedded
+  // walls (near-wall spreading and contact come later): the coupling stops a run whose
+  // membrane comes closer, and the case is refused when a capsule starts closer.
+  [[nodiscard]] double embedded_wall_reach(int k) const;
   // The fraction of stability_limit() that a solver-chosen dt uses (time.cfl > 0): the
   // measured limits hold for 150 steps; long runs and strong deformations need a margin.
   static constexpr double kSafety = 0.5;
@@ -277,6 +283,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[noreturn]] void fail(int step, const std::string& what, Cause cause = Cause::instability) const;
   [[noreturn]] void fail_stencil(int step, int k, const StencilError& e) const;
   [[nodiscard]] Capsule* owned(int i) const;
+  // Embedded walls: fails (Cause::wall) when a node at `at` of capsule k comes within its
+  // kernels' reach of one (nothing without solids).
+  void check_embedded_walls(int step, int k, const Eigen::Matrix3Xd& at) const;
   // The nodes' velocities from uf (interpolate_faces per owned capsule), then advance_nodes.
   void interpolate_velocities(int step);
   // X += dt (the scheme's motion) for every owned capsule, each new position checked first.

@@ -143,6 +143,52 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
   expect_restart_repeats_run(dir, base, "checkpoint_000010.h5", full);
 }
 
+// A capsule carried by the flow into an embedded post stops the run when its membrane comes
+// within its kernels' reach of the wall: exit 3, one line naming the capsule, the step, the
+// time and the node's place; the output so far is kept.
+TEST(AppCapsule, ACapsuleCarriedIntoAnEmbeddedPostStopsTheRun) {
+  const fs::path dir = scratch("post");
+  const fs::path file = write(dir, "post.toml", R"(dimension = 3
+[domain]
+roots = [4, 1, 1]
+root_size = 2.0
+origin = [-4.0, -1.0, -1.0]
+[fluid]
+stokes = true
+[fluid.boundary]
+x_lo = { type = "inflow", profile = "square_duct", mean_velocity = 1.0 }
+x_hi = { type = "outflow" }
+y_lo = { type = "wall" }
+y_hi = { type = "wall" }
+z_lo = { type = "wall" }
+z_hi = { type = "wall" }
+[adapt]
+max_level = 5
+wall_level = 5
+interval = 5
+[[solid]]
+shape = "sphere"
+centre = [0.0, 0.0, 0.0]
+radius = 0.3
+[[capsule]]
+nodes = 642
+radius = 0.4
+centre = [-1.25, 0.0, 0.0]
+[time]
+dt = 0.002
+t_end = 0.4
+[output]
+vtu = false
+)");
+  const auto r = capsflow("run " + file.string() + " --quiet --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.status, 3) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("came within the immersed-boundary kernel's reach"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("of an embedded wall"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("capsule 0: node"));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "out" / "diagnostics.csv"));
+}
+
 // The same with an embedded wall (a cylinder in the cavity, Stokes): the geometry is rebuilt
 // on the checkpoint's tree, and the snapshots carry the fluid fraction.
 TEST(AppRestart, RestartWithAnEmbeddedWallRepeatsTheRunExactly) {

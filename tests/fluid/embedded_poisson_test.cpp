@@ -166,5 +166,30 @@ TEST(EmbeddedPoisson, PipePoiseuilleIn3D) {
   expect_orders(r, "pipe 3D, uniform");
 }
 
+// A tube whose wall meets a Dirichlet side of the brick (an outflow's pressure): the coarse
+// levels' faces on that side must be the means of the fine ones like every other coarse
+// face. They were the coarse cells' own cut, and the cycles diverged tenfold a cycle.
+TEST(EmbeddedPoisson, ATubeThroughADirichletSideConverges) {
+  const int level = 4;
+  Tree<3> t({.roots = {2, 1, 1}, .max_level = level});
+  t.refine_to([](const tree::Box<3>&) { return level; });
+  const EmbeddedGeometry<3> g(t, geometry::complement(geometry::cylinder({.centre = {0.0, 0.5, 0.5}, .radius = 0.3})));
+  std::vector<double> faces, pins;
+  embedded_face_coefficients<3>(t, g, 1.0, faces);
+  embedded_cell_coefficients<3>(t, g, 0.0, pins);
+  auto bc = tree::BoundaryConditions<3>::all(tree::BcKind::neumann);
+  bc.side[1].kind = tree::BcKind::dirichlet;  // x_hi
+  const EllipticOperator<3, EmbeddedFaces<3>, PinnedCells> op(t, {1.0, faces.data(), g.uniform().data()}, {pins.data()}, bc);
+  std::vector<double> p(static_cast<std::size_t>(t.num_cells()), 0.0), b(p.size(), 0.0);
+  for (const Index c : t.leaves()) {
+    const Point<3> x = t.center(c);
+    b[static_cast<std::size_t>(c)] = std::sin(3.0 * x[0]) * g.volume()[static_cast<std::size_t>(c)];
+  }
+  MultigridWorkspace ws;
+  const MultigridStats s = solve(op, p, b, ws, {.tolerance = 1e-9, .max_cycles = 30});
+  EXPECT_TRUE(s.converged) << "final residual " << s.final_residual;
+  EXPECT_LE(s.cycles, 16);
+}
+
 }  // namespace
 }  // namespace capsflow::fluid
