@@ -72,6 +72,7 @@ void EmbeddedGeometry<D>::rebuild() {
   resize<D>(faces_, tree_);
   wall_area_.assign(n, 0.0);
   for (auto& x : wall_centroid_) x.assign(n, 0.0);
+  for (auto& x : upper_) x.assign(n, 0.0);
   side_.assign(n, 0);
   for (int l = 0; l <= tree_.depth(); ++l) evaluate_level(l);
   // From the deepest level up, as Tree::restrict_and_exchange: a level's coarse values come
@@ -81,11 +82,23 @@ void EmbeddedGeometry<D>::rebuild() {
   for (int d = 0; d < D; ++d) {
     fields.emplace_back(faces_[d]);
     fields.emplace_back(wall_centroid_[d]);
+    fields.emplace_back(upper_[d]);
   }
   const int deepest = tree_.distributed() ? tree_.global_depth() : tree_.depth();
   for (int l = deepest; l >= 0; --l) {
     if (l <= tree_.depth()) make_coarse_consistent(l);
     if (tree_.distributed()) tree_.update_ghosts(l, fields);
+  }
+  // A face on an upper side of the brick is the slot of the boundary cell beyond it, which
+  // no exchange reaches: it takes the cell's own upper face (its owner's, for a ghost).
+  for (int l = 0; l <= tree_.depth(); ++l) {
+    const tree::Level<D>& lv = tree_.level(l);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
+      const Index* row = lv.face_row(c);
+      for (int d = 0; d < D; ++d)
+        if (row[2 * d + 1] >= lv.boundary_begin())
+          faces_[d][static_cast<std::size_t>(row[2 * d + 1])] = upper_[d][static_cast<std::size_t>(c)];
+    }
   }
   collect_walls();
 }
@@ -112,7 +125,10 @@ void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
   const geometry::CellCut<D> cut = geometry::cut_cell<D>(phi);
   const auto s = static_cast<std::size_t>(c);
   volume_[s] = cut.volume;
-  for (int d = 0; d < D; ++d) faces_[d][s] = cut.face[static_cast<std::size_t>(2 * d)];
+  for (int d = 0; d < D; ++d) {
+    faces_[d][s] = cut.face[static_cast<std::size_t>(2 * d)];
+    upper_[d][s] = cut.face[static_cast<std::size_t>(2 * d + 1)];
+  }
   wall_area_[s] = cut.wall_area * std::pow(h, D - 1);
   for (int d = 0; d < D; ++d)
     wall_centroid_[d][s] = o.origin[d] + (ijk[d] + cut.wall_centroid[static_cast<std::size_t>(d)]) * h;
@@ -159,7 +175,7 @@ void EmbeddedGeometry<D>::evaluate_level(int l) {
     }
     const double full = inherited > 0 ? 1.0 : 0.0;
     volume_[s] = full;
-    for (int d = 0; d < D; ++d) faces_[d][s] = full;
+    for (int d = 0; d < D; ++d) faces_[d][s] = upper_[d][s] = full;
   }
 }
 
@@ -202,20 +218,14 @@ void EmbeddedGeometry<D>::make_coarse_consistent(int l) {
     }
     volume_[s] = volume / C;
     wall_area_[s] = area;
-    const Index* row = lv.face_row(c);
     for (int d = 0; d < D; ++d) {
       faces_[d][s] = lower_faces_mean(d, first);
       wall_centroid_[d][s] = area > 0.0 ? moment[d] / area : 0.0;
-      // The face on an upper side of the brick is the slot of the boundary cell beyond it,
-      // which no parent rule reaches: the mean of the children's faces there too.
-      const Index up = row[2 * d + 1];
-      if (up >= lv.boundary_begin()) {
-        const tree::Level<D>& fine = tree_.level(l + 1);
-        double sum = 0.0;
-        for (int b = 0; b < C; ++b)
-          if (tree::child_bit(b, d)) sum += faces_[d][static_cast<std::size_t>(fine.face_row(first + b)[2 * d + 1])];
-        faces_[d][static_cast<std::size_t>(up)] = sum / (C / 2);
-      }
+      // The upper face: the mean of the children's (their upper faces are the cell's).
+      double sum = 0.0;
+      for (int b = 0; b < C; ++b)
+        if (tree::child_bit(b, d)) sum += upper_[d][static_cast<std::size_t>(first + b)];
+      upper_[d][s] = sum / (C / 2);
     }
   }
 }

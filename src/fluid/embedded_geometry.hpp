@@ -78,7 +78,10 @@ class EmbeddedGeometry {
   std::vector<double> volume_;
   FaceField<D> faces_;
   std::vector<double> wall_area_;
-  std::array<std::vector<double>, D> wall_centroid_;  // relative to the cell's lower corner, absolute units
+  std::array<std::vector<double>, D> wall_centroid_;  // absolute positions
+  // Each active cell's upper face along d, kept with the cell (exchanged with it) for the
+  // faces on the brick's upper sides, whose slots are boundary cells.
+  std::array<std::vector<double>, D> upper_;
   std::vector<std::int8_t> side_;
   std::vector<std::uint8_t> uniform_;  // +1 wholly fluid, -1 wholly solid (and so its children), 0 near the wall
   std::vector<std::vector<Index>> cut_cells_;

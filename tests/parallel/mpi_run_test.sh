@@ -13,7 +13,8 @@
 #     a warning (unconverged solves) printed once, not once per rank;
 #     a uniform grid too big for this node, and a capsule with the cell-centred coupling, on 2
 #     ranks are refused: exit 2, one capsflow line, no output folder (under mpirun -q, nothing else);
-#  4. capsules on 2 to 4 ranks: the quick relaxation and the seed case's scheme (midpoint nodes,
+#  4. capsules on 2 to 4 ranks: the quick relaxation, a capsule in a tube (embedded walls) and
+#     the seed case's scheme (midpoint nodes,
 #     adaptations in time) write one rank's diagnostics, capsule rows and final nodes; a
 #     checkpoint written on 2 ranks restarts on 1 and 3 into the uninterrupted run; a capsule
 #     carried across ranks by an inflow changes owner and matches one rank; a capsule blowing
@@ -86,7 +87,7 @@ matches_one_rank adaptive-cavity 3 run "$cases/cavity_2d.toml" --set time.t_end=
 
 # Embedded walls: the constricted channel (a slab pierced by a circular throat, refined along
 # its walls) on 3 ranks.
-matches_one_rank constriction 3 run "$cases/constriction_stokes.toml" --set time.t_end=0.1 --set output.vtu=false \
+matches_one_rank constriction 3 run "$cases/constriction_stokes.toml" --set time.t_end=0.03 --set output.vtu=false \
   --set output.cells_csv=true --quiet
 
 # 3D: the square duct (inflow profile, wall-refined, adapted every 5 steps) on 4 ranks; the
@@ -156,6 +157,10 @@ capsule_matches_one_rank() {
 quick=(run "$cases/relaxation_quick.toml" --set adapt.max_level=4 --set 'capsule[0].nodes=642' --set time.t_end=0.02
        --set output.diagnostics_interval=1 --set output.vtu=false --quiet)
 for n in 2 4; do capsule_matches_one_rank "quick-relaxation" "$n" "${quick[@]}"; done
+# A capsule in a tube (embedded walls) on 3 ranks.
+tube=(run "$cases/tube_capsule_stokes.toml" --set 'capsule[0].nodes=642' --set 'capsule[0].radius=0.3'
+      --set time.t_end=0.006 --set output.diagnostics_interval=1 --set output.vtu=false --quiet)
+capsule_matches_one_rank "tube-capsule" 3 "${tube[@]}"
 # The seed case's scheme (midpoint nodes, adaptations in time, faces carried through them).
 seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
       --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)
