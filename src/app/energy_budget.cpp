@@ -1,7 +1,5 @@
 #include "app/energy_budget.hpp"
 
-#include <limits>
-
 #include <fmt/format.h>
 
 #include "parallel/all_or_none.hpp"
@@ -104,9 +102,6 @@ std::vector<std::string> EnergyBudget<D>::columns() {
 
 template <int D>
 std::vector<double> EnergyBudget<D>::row() const {
-  // The fluid's energy, dissipation and boundary work do not know embedded walls yet (the
-  // fluid fractions, the walls' shear): blank rather than wrong.
-  if (ns_.embedded()) return std::vector<double>(columns().size(), std::numeric_limits<double>::quiet_NaN());
   const double membrane = membrane_energy();
   const double residual = (membrane_start_ - membrane) + (kinetic_start_ - flow_.kinetic) + boundary_work_ -
                           dissipated_ - adaptation_loss_;

@@ -18,8 +18,7 @@
 // The integrals and the values at the run's start travel in checkpoints, so a restarted run
 // writes the same columns as the uninterrupted one. Fluid quantities are taken after each
 // flow step, before the adaptation changes the grid (what the adaptation's transfer does to
-// the kinetic energy shows in the residual). With embedded walls the columns are blank (NaN)
-// until the budget takes the walls into account (docs/walls.md).
+// the kinetic energy shows in the residual).
 #include <string>
 #include <vector>
 

@@ -64,10 +64,12 @@ double kinetic_energy(const NavierStokes<D>& ns) {
   const tree::Tree<D>& t = ns.tree();
   std::array<std::span<const double>, D> u;
   for (int d = 0; d < D; ++d) u[d] = t.values(ns.velocity(d));
+  // With embedded walls, each cell's fluid part.
+  const double* volume = ns.embedded() ? ns.embedded()->volume().data() : nullptr;
   return detail::leaf_integral<D>(t, [&](Index c) {
            double s = 0.0;
            for (int d = 0; d < D; ++d) s += u[d][c] * u[d][c];
-           return 0.5 * ns.cell_density(c) * s;
+           return 0.5 * ns.cell_density(c) * s * (volume ? volume[c] : 1.0);
          }).first;
 }
 
@@ -93,9 +95,11 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   // sum is scaled once: every face of a leaf has the leaf's h), and the boundary power.
   const bool variable = ns.variable_properties();
   const double mu_constant = variable ? 1.0 : ns.face_viscosity(0, 0, 0, t.level(0));
+  // Embedded walls: each face's fluid part (the solver's face coefficients).
+  const FaceField<D>* open = ns.embedded() ? &ns.embedded()->faces() : nullptr;
   const auto [dissipation, boundary] = face_sums<D, 2>(t, [&](int d, Index lo, Index hi, double h,
                                                               const tree::Level<D>& lv) -> std::array<double, 2> {
-    const double mu = variable ? ns.face_viscosity(d, lo, hi, lv) : 1.0;
+    const double mu = (variable ? ns.face_viscosity(d, lo, hi, lv) : 1.0) * (open ? (*open)[d][hi] : 1.0);
     const Index outer = std::max(lo, hi);  // boundary cells come last in a level
     if (outer < lv.boundary_begin()) {
       double s = 0.0;
@@ -128,6 +132,15 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   }, [&](double h) { return mu_constant * volume_of<D>(h) / (h * h); });
   e.dissipation = dissipation;
   e.boundary_power = boundary;
+  if (const WallFlux<D>* walls = ns.wall_flux()) {  // the walls' share: -sum_c u_c . mu W_c(u) h^D
+    const double mu = ns.face_viscosity(0, 0, 0, t.level(0));
+    e.dissipation -= detail::leaf_integral<D>(t, [&](Index c) {
+                       if (!walls->cut(c)) return 0.0;
+                       double s = 0.0;
+                       for (int k = 0; k < D; ++k) s += u[k][c] * (walls->self(c) * u[k][c] + walls->others(c, u[k]));
+                       return mu * s;
+                     }).first;
+  }
   if (ns.variable_properties()) {  // the transpose stress's share: -sum u . T h^D
     const std::span<const double> mu = t.values(ns.viscosity_field());
     std::vector<double> stress(static_cast<std::size_t>(t.num_cells()), 0.0);

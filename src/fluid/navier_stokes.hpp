@@ -175,6 +175,8 @@ class NavierStokes {
   void set_solid(geometry::SolidPtr solid);
   // The embedded walls, or nullptr.
   const EmbeddedGeometry<D>* embedded() const { return embedded_.get(); }
+  // Their flux stencils (the viscous operator's wall terms, for mu = 1), or nullptr.
+  const WallFlux<D>* wall_flux() const { return wall_flux_.get(); }
 
   // The body force of the last step on faces, as the acceleration stage applied it (zero on
   // the faces of sides with a prescribed normal velocity, which carry the force).
