@@ -140,10 +140,8 @@ double vortex_budget_residual(double dt, bool crank_nicolson) {
 // of the cells' fluid parts, the dissipation through the open parts of the faces and the
 // walls' share (minus u . the walls' flux). The budget starts after the first step, whose
 // projection removes the part of the initial field that crosses the wall. Measured relative
-// residuals at dt = 0.01, 0.005, 0.0025: backward Euler 5.1e-2, 1.5e-2, 1.6e-3;
-// Crank-Nicolson 2.9e-2, 3.7e-3, 3.4e-3: Crank-Nicolson levels off at a few 1e-3, which
-// dt does not reduce (the cut cells' velocity correction of the approximate projection is
-// not energy-neutral: docs/walls.md).
+// residuals at dt = 0.01, 0.005, 0.0025: backward Euler 1.0e-1, 3.9e-2, 1.1e-2 (orders 1.4,
+// 1.8); Crank-Nicolson 8.1e-2, 3.1e-2, 7.5e-3 (1.4, 2.0).
 double cylinder_budget_residual(double dt, bool crank_nicolson) {
   Tree<2> t({.roots = {1, 1}, .periodic = {true, true}, .max_level = 5});
   t.refine_to([](const tree::Box<2>&) { return 5; });
@@ -180,8 +178,9 @@ TEST(FlowEnergy, BudgetAroundAnEmbeddedCylinderClosesAtTheSchemesOrder) {
   }
   for (std::size_t i = 0; i < euler.size(); ++i) std::printf("embedded cylinder budget residual: BE %.3e, CN %.3e\n", euler[i], cn[i]);
   testing::expect_orders_at_least("backward Euler budget, embedded cylinder", euler, 0.9);
-  EXPECT_LT(euler.back(), 5e-3);
-  EXPECT_LT(cn.back(), 5e-3);
+  testing::expect_orders_at_least("Crank-Nicolson budget, embedded cylinder", cn, 1.3);
+  EXPECT_LT(euler.back(), 2e-2);
+  EXPECT_LT(cn.back(), 1e-2);
 }
 
 TEST(FlowEnergy, DecayingVortexBudgetClosesAtTheSchemesOrder) {

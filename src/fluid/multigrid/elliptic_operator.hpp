@@ -51,6 +51,9 @@ inline constexpr Index kPrefetchGroups = 16;
 // Red-black passes over the cells near embedded walls before each sweep (WallFlux::band):
 // the walls' stencils reach past the face neighbours and smooth slowly otherwise.
 inline constexpr int kWallBandPasses = 2;
+// The cut cells' and the band's loops go parallel from this many cells: each costs a wall
+// stencil (up to 27 weights) or a full update, several times a level's plain cell.
+inline constexpr Index kWallListParallelMin = 512;
 
 template <int D, class Alpha = ConstantFaces, class Lambda = ZeroCells, class Walls = NoWalls>
 class EllipticOperator {
@@ -218,7 +221,10 @@ class EllipticOperator {
   // its stencil, at the values da holds now, in scratch (unused by red-black otherwise).
   void lag_wall_terms(int l, std::span<const double> da, std::span<double> scratch) const {
     if constexpr (Walls::kActive) {
-      for (const Index c : walls_.flux->cut_cells(l)) scratch[c] = walls_.others(c, da);
+      const std::span<const Index> cut = walls_.flux->cut_cells(l);
+      const auto n = static_cast<Index>(cut.size());
+#pragma omp parallel for schedule(static) if (n > kWallListParallelMin)
+      for (Index i = 0; i < n; ++i) scratch[cut[i]] = walls_.others(cut[i], da);
     }
   }
 
@@ -229,7 +235,11 @@ class EllipticOperator {
       for (int pass = 0; pass < kWallBandPasses; ++pass)
         for (int colour = 0; colour < 2; ++colour) {
           lag_wall_terms(l, da, scratch);
-          for (const Index c : walls_.flux->band(l, colour)) da[c] = updated(lv, c, dg, da, res);
+          // A colour's cells read the other colour only (and the lagged sums): in any order.
+          const std::span<const Index> band = walls_.flux->band(l, colour);
+          const auto n = static_cast<Index>(band.size());
+#pragma omp parallel for schedule(static) if (n > kWallListParallelMin)
+          for (Index i = 0; i < n; ++i) da[band[i]] = updated(lv, band[i], dg, da, res);
           if (exchange) tree_.update_ghosts(l, da, colour);
         }
     }

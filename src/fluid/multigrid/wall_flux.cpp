@@ -17,6 +17,11 @@ namespace {
 // The smallest eigenvalue of the fit's normal matrix (in cells^2) below which the cells of a
 // block do not span every direction around the wall: a gradient from them would be guessed.
 constexpr double kMinSpread = 1e-3;
+// The fit's weights 1 / (d^2 + kNearWeight), d a point's distance from the wall plane in
+// cells. Measured against unweighted points (duct in a triangulated box, level 6): flow-rate
+// error 5.0e-3 -> 6.6e-4 (the brick's walls: 9.4e-4); cylinder-array drag errors -0.8% ->
+// -0.6%; multigrid cycles unchanged or one fewer. 0.1 gives 2.1e-3, 0.25 3.3e-3.
+constexpr double kNearWeight = 0.03;
 // How far (in cells) on the fluid side of the wall's plane a centre must lie to enter a fit.
 constexpr double kFluidSide = 0.0;
 // The band around the cut cells that the smoother relaxes again: two rings of neighbours.
@@ -65,7 +70,15 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
         if (y.dot(into_fluid) >= kFluidSide) points.push_back({k, y});
       }
       Mat m = Mat::Zero();
-      for (const auto& [k, y] : points) m += y * y.transpose();
+      // Weighted by the inverse square of each point's distance from the wall's plane: the
+      // nearest cells say most about the gradient there (a farther point adds the flow's
+      // curvature across the wall, times its distance, to it).
+      const Vec unit = n.normalized();
+      auto omega = [&unit](const Vec& y) {
+        const double across = y.dot(unit);
+        return 1.0 / (across * across + kNearWeight);
+      };
+      for (const auto& [k, y] : points) m += omega(y) * y * y.transpose();
       const Eigen::SelfAdjointEigenSolver<Mat> spread(m);
       const auto r = static_cast<std::int32_t>(self_.size());
       row_[static_cast<std::size_t>(c)] = r;
@@ -75,7 +88,7 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
         // grad a . N = N^T M^-1 sum_k y_k (a_k - a_wall) / h.
         const Vec q = m.ldlt().solve(n) / h;
         for (const auto& [k, y] : points) {
-          const double w = q.dot(y) * inv_volume;
+          const double w = omega(y) * q.dot(y) * inv_volume;
           total += w;
           if (k == c) {
             self = w;

@@ -9,7 +9,9 @@
 // the faces weighted by their fluid fractions fs (the operator's face coefficients), N the
 // wall's area vector (the integral of the normal into the solid) and x_w its centroid. The
 // gradient at x_w is the least-squares fit of a_wall + g . (x - x_w) to the cell values of
-// c's 3^D block of the same level that have fluid (Johansen & Colella 1998 fit the same
+// c's 3^D block of the same level that have fluid, the nearer to the wall the heavier
+// (weights 1 / (d^2 + 0.03), d the distance from the wall plane in cells; Johansen &
+// Colella 1998 fit the same
 // gradient along the normal; Basilisk's embed.h interpolates along it): exact for linear a,
 // so with N the faces' imbalance (the divergence theorem) every cut cell's fluxes add up for
 // linear fields, and second order overall. The fit is a fixed linear stencil per cut cell,
