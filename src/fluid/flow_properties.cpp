@@ -113,18 +113,8 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   // The multigrid relaxes parents too: they take the volume mean of their children's
   // (distributed: the ghosts' from their owners).
   tree_.restrict_and_exchange(lambda_);
-  if (theta < 1.0) {  // explicit part at u^n (not u*: shift_by_g), walls at t^n
-    const double t_new = boundary_time_;
-    boundary_time_ = time_;
-    EllipticOperator<D, FaceArray<D>> explicit_part(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]);
-    shift_by_g(d, -dt);  // u^n
-    tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
-    explicit_part.apply_leaves(u, div_);
-    shift_by_g(d, dt);
-    const double w = (1.0 - theta) / theta;
-    tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
-    boundary_time_ = t_new;
-  }
+  if (theta < 1.0)  // explicit part at u^n (not u*: shift_by_g), walls at t^n
+    subtract_explicit_half(d, dt, theta, EllipticOperator<D, FaceArray<D>>(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]));
   EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {mu_faces_.data()}, {lambda_.data()},
                                                   conditions_.velocity[d]);
   // The velocity tolerance in the residual's units, rho/(theta dt), with the smallest

@@ -226,6 +226,22 @@ class NavierStokes {
   void evaluate_force();
   void shift_by_g(int d, double s);  // u_d += s g_d on the leaves
   MultigridStats variable_viscous_solve(int d, double dt, double theta);
+  // Crank-Nicolson's explicit half of the divided viscous equation: rhs -= (1 - theta)/theta
+  // op(u^n) on the leaves, op the viscous operator without lambda, u^n = u* - dt g and the
+  // sides' values at t^n.
+  template <class Op>
+  void subtract_explicit_half(int d, double dt, double theta, const Op& op) {
+    std::span<double> u = tree_.values(u_[d]);
+    const double t_new = boundary_time_;
+    boundary_time_ = time_;
+    shift_by_g(d, -dt);  // u^n
+    tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
+    op.apply_leaves(u, div_);
+    shift_by_g(d, dt);
+    const double w = (1.0 - theta) / theta;
+    tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
+    boundary_time_ = t_new;
+  }
   // Embedded walls (ns_embedded.cpp): the geometry and its operators after the tree changed;
   // the viscous solve of component d; the projection's solve and face update; the cell mean
   // of the face accelerations (open faces only).

@@ -56,19 +56,10 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
   tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * volume[static_cast<std::size_t>(c)] * u[c]; });
   const WallTerms<D> walls{wall_flux_.get(), mu_};
   const std::uint8_t* uniform = embedded_->uniform().data();
-  if (theta < 1.0) {  // explicit part at u^n (shift_by_g), walls at t^n
-    const double t_new = boundary_time_;
-    boundary_time_ = time_;
-    const EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>> explicit_part(
-        tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls);
-    shift_by_g(d, -dt);
-    tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
-    explicit_part.apply_leaves(u, div_);
-    shift_by_g(d, dt);
-    const double w = (1.0 - theta) / theta;
-    tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
-    boundary_time_ = t_new;
-  }
+  if (theta < 1.0)
+    subtract_explicit_half(d, dt, theta,
+                           EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>>(
+                               tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls));
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
       tree_, {mu_, viscous_faces_.data(), uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);
   MultigridOptions opt = options_.viscous;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "app_support.hpp"
+#include "post_channel.hpp"
 #include "small_cavity.hpp"
 
 namespace capsflow::app {
@@ -75,32 +76,7 @@ TEST(AppErrors, SolidsAreCheckedAndRefusedWhereNotSupportedYet) {
 // A capsule must start beyond its kernels' reach of every embedded wall (contact is not
 // modelled): refused before any work, naming the capsule and the distance.
 TEST(AppErrors, CapsuleStartingAtAnEmbeddedWallIsRefused) {
-  const std::string text = R"(dimension = 3
-[domain]
-roots = [4, 1, 1]
-root_size = 2.0
-origin = [-4.0, -1.0, -1.0]
-[fluid]
-stokes = true
-[fluid.boundary]
-x_lo = { type = "wall" }
-x_hi = { type = "outflow" }
-y_lo = { type = "wall" }
-y_hi = { type = "wall" }
-z_lo = { type = "wall" }
-z_hi = { type = "wall" }
-[adapt]
-max_level = 5
-[[solid]]
-shape = "sphere"
-centre = [0.0, 0.0, 0.0]
-radius = 0.3
-[[capsule]]
-nodes = 642
-radius = 0.4
-centre = [-1.0, 0.0, 0.0]
-)";
-  expect_refused(text, "", "capsule[0].centre: the membrane starts 0.3 from an embedded wall");
+  expect_refused(test_cases::post_channel(-1.0), "", "capsule[0].centre: the membrane starts 0.3 from an embedded wall");
 }
 
 TEST(AppErrors, CapsuleThatDoesNotFit) {

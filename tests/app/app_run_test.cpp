@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "app_support.hpp"
+#include "post_channel.hpp"
 #include "io/case_config.hpp"
 #include "io/pvd_series.hpp"
 
@@ -148,38 +149,7 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
 // time and the node's place; the output so far is kept.
 TEST(AppCapsule, ACapsuleCarriedIntoAnEmbeddedPostStopsTheRun) {
   const fs::path dir = scratch("post");
-  const fs::path file = write(dir, "post.toml", R"(dimension = 3
-[domain]
-roots = [4, 1, 1]
-root_size = 2.0
-origin = [-4.0, -1.0, -1.0]
-[fluid]
-stokes = true
-[fluid.boundary]
-x_lo = { type = "inflow", profile = "square_duct", mean_velocity = 1.0 }
-x_hi = { type = "outflow" }
-y_lo = { type = "wall" }
-y_hi = { type = "wall" }
-z_lo = { type = "wall" }
-z_hi = { type = "wall" }
-[adapt]
-max_level = 5
-wall_level = 5
-interval = 5
-[[solid]]
-shape = "sphere"
-centre = [0.0, 0.0, 0.0]
-radius = 0.3
-[[capsule]]
-nodes = 642
-radius = 0.4
-centre = [-1.25, 0.0, 0.0]
-[time]
-dt = 0.002
-t_end = 0.4
-[output]
-vtu = false
-)");
+  const fs::path file = write(dir, "post.toml", test_cases::post_channel(-1.25));
   const auto r = capsflow("run " + file.string() + " --quiet --out " + (dir / "out").string(), dir);
   EXPECT_EQ(r.status, 3) << r.err;
   EXPECT_THAT(r.err, ::testing::HasSubstr("came within the immersed-boundary kernel's reach"));

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "embedded_trees.hpp"
 #include "geometry/cut_cell.hpp"
 #include "parallel/exact_sum.hpp"
 
@@ -86,26 +87,7 @@ TEST(EmbeddedGeometry, CircleAreaAndPerimeterConvergeAtSecondOrder) {
   }
 }
 
-// A tree refined to max_level along the wall of `solid` (within `band` cells of it), coarse
-// elsewhere.
-template <int D>
-Tree<D> refined_along(const geometry::SolidPtr& solid, int coarse, int fine, double band) {
-  tree::TreeOptions<D> o;
-  o.roots.fill(1);
-  o.max_level = fine;
-  Tree<D> t(o);
-  t.refine_to([&](const tree::Box<D>& b) {
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    double half = 0.0;
-    for (int d = 0; d < D; ++d) {
-      centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
-      half += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
-    }
-    const double reach = std::sqrt(half) + band * std::pow(2.0, -fine);
-    return std::abs(solid->signed_distance(centre)) <= reach ? fine : coarse;
-  });
-  return t;
-}
+using testing::refined_along;
 
 template <int D>
 void check_consistency(const Tree<D>& t, const EmbeddedGeometry<D>& g, bool adaptive = true) {

@@ -10,6 +10,7 @@
 #include <functional>
 #include <vector>
 
+#include "embedded_trees.hpp"
 #include "fluid/embedded_geometry.hpp"
 #include "fluid/multigrid/elliptic_operator.hpp"
 #include "fluid/multigrid/embedded_coefficients.hpp"
@@ -75,21 +76,7 @@ Tree<D> uniform(int level) {
 // Refined to `level` within two cells of the wall, three levels coarser elsewhere.
 template <int D>
 Tree<D> along_wall(int level, const geometry::SolidPtr& solid) {
-  tree::TreeOptions<D> o;
-  o.roots.fill(1);
-  o.max_level = level;
-  Tree<D> t(o);
-  t.refine_to([&](const tree::Box<D>& b) {
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    double half = 0.0;
-    for (int d = 0; d < D; ++d) {
-      centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
-      half += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
-    }
-    const double band = std::sqrt(half) + 2.0 * std::pow(2.0, -level);
-    return std::abs(solid->signed_distance(centre)) <= band ? level : level - 3;
-  });
-  return t;
+  return testing::refined_along<D>(solid, level - 3, level, 2.0);
 }
 
 void expect_orders(const std::vector<Result>& r, const char* what) {
