@@ -203,6 +203,8 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
   const std::string key = fmt::format("capsule[{}]", i);
   if (c.dimension != 3) ck.fail(key, "capsules need dimension = 3");
   ck.positive(key + ".Ca", cap.Ca);
+  // C is kept (and written back) whatever the law: a NaN would not read back as itself.
+  ck.finite(key + ".C", cap.C);
   if (cap.law == MembraneLaw::skalak && !(cap.C > -0.5 && std::isfinite(cap.C)))
     ck.fail(key + ".C", toml_number(cap.C), "must be > -0.5 (area modulus Gs (1 + 2C) > 0)");
   constexpr std::array kNodes{642, 2562, 10242, 40962};

@@ -227,6 +227,9 @@ TEST(io_case_errors, OtherImpossibleValues) {
               HasSubstr("capsule[0].nodes = 1000: must be 642, 2562, 10242 or 40962"));
   EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nC = -0.7\n"),
               HasSubstr("capsule[0].C = -0.7: must be > -0.5"));
+  // Ignored by the neo-Hookean law, but written back to case.toml: a NaN would not read back.
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nlaw = \"neo_hookean\"\nradius = 0.2\ncentre = [0,0,0]\nC = nan\n"),
+              HasSubstr("capsule[0].C = nan: must be finite"));
   EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\ncentre = [0,0,0]\n"), HasSubstr("capsule[0].radius: missing"));
   EXPECT_THAT(error_of("dimension = 2\n[fluid.boundary]\nx_lo = {type=\"wall\"}\nx_hi = {type=\"wall\"}\n"
                        "y_lo = {type=\"wall\"}\ny_hi = {type=\"wall\"}\nz_lo = {type=\"wall\"}\n"),
