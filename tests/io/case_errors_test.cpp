@@ -6,6 +6,7 @@
 #include <fstream>
 #include <vector>
 
+#include "case_error_of.hpp"
 #include "io/case_config.hpp"
 
 namespace capsflow::io {
@@ -35,18 +36,7 @@ std::string replace(std::string text, std::string_view from, std::string_view to
   return text;
 }
 
-// The message of the CaseError that parsing `text` throws (fails the test if none).
-std::string error_of(const std::string& text, std::span<const std::string> overrides = {}) {
-  try {
-    (void)parse_case_text(text, "case.toml", overrides);
-  } catch (const CaseError& e) {
-    EXPECT_THAT(std::string(e.what()), Not(HasSubstr("\n"))) << "one line";
-    EXPECT_THAT(std::string(e.what()), HasSubstr("case.toml: ")) << "names the file";
-    return e.what();
-  }
-  ADD_FAILURE() << "no CaseError for:\n" << text;
-  return {};
-}
+using testing::error_of;
 
 TEST(io_case_errors, TheBaseCaseIsValid) { EXPECT_NO_THROW((void)parse_case_text(std::string(kBase), "case.toml")); }
 

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <string>
 
+#include "case_error_of.hpp"
 #include "io/case_config.hpp"
 #include "io/case_solids.hpp"
 #include "scratch_dir.hpp"
@@ -30,16 +31,7 @@ z_lo = { type = "wall" }
 z_hi = { type = "wall" }
 )";
 
-std::string error_of(const std::string& text) {
-  try {
-    (void)parse_case_text(text, "case.toml");
-  } catch (const CaseError& e) {
-    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
-    return e.what();
-  }
-  ADD_FAILURE() << "accepted:\n" << text;
-  return {};
-}
+using testing::error_of;
 
 double phi(const geometry::SolidPtr& s, double x, double y, double z) { return s->signed_distance({x, y, z}); }
 
