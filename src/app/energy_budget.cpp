@@ -47,7 +47,8 @@ void EnergyBudget<D>::measure(bool spread) {
   // Before the first step there is neither a force nor a projected face velocity.
   if (spread)
     spread_power_ = ns_.face_velocity_current()
-                        ? fluid::face_power<D>(ns_.tree(), ns_.face_force(), ns_.face_velocity())
+                        ? fluid::face_power<D>(ns_.tree(), ns_.face_force(), ns_.face_velocity(),
+                                               ns_.embedded() ? &ns_.embedded()->faces() : nullptr)
                         : 0.0;
 }
 

@@ -113,14 +113,14 @@ class FlowRun {
     check_capsules_clear_of_solids();
   }
 
-  // Capsules must start beyond their kernels' reach of every embedded wall (near-wall
-  // spreading and contact are not modelled yet): a bad case, before any work.
+  // A capsule must not start touching an embedded wall (within the coupling's contact
+  // distance; contact forces are not modelled yet): a bad case, before any work.
   void check_capsules_clear_of_solids() const {
     if (!solid_ || !capsules_) return;
     const ibm::CapsuleCoupling& coupling = capsules_->coupling();
+    const double contact = coupling.embedded_wall_contact();
     for (int k = 0; k < coupling.num_capsules(); ++k) {
       const Eigen::Matrix3Xd& x = coupling.capsule(k).x;
-      const double reach = coupling.embedded_wall_reach(k);
       Eigen::Index nearest = 0;
       double distance = std::numeric_limits<double>::infinity();
       for (Eigen::Index n = 0; n < x.cols(); ++n) {
@@ -130,12 +130,11 @@ class FlowRun {
           nearest = n;
         }
       }
-      if (!(distance > reach))
+      if (!(distance > contact))
         throw io::CaseError(fmt::format(
             "{}: capsule[{}].centre: the membrane starts {:.4g} from an embedded wall (node at ({:.4g}, {:.4g}, {:.4g})), "
-            "within its kernels' reach {:.4g}: capsules must stay farther from solids (contact is not modelled yet); move "
-            "it, shrink it, or refine (adapt.max_level)",
-            request_.case_file.string(), k, distance, x(0, nearest), x(1, nearest), x(2, nearest), reach));
+            "touching it (within a quarter of the finest cell, {:.4g}; contact is not modelled yet); move it or shrink it",
+            request_.case_file.string(), k, distance, x(0, nearest), x(1, nearest), x(2, nearest), contact));
     }
   }
 

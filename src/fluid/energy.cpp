@@ -153,11 +153,11 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
 }
 
 template <int D>
-double face_power(const tree::Tree<D>& t, const FaceField<D>& force, const FaceField<D>& uf) {
+double face_power(const tree::Tree<D>& t, const FaceField<D>& force, const FaceField<D>& uf, const FaceField<D>* open) {
   CAPSFLOW_ASSERT(spans_cells<D>(force, t) && spans_cells<D>(uf, t), "face_power: a face field does not span the tree");
   return face_sums<D, 1>(
       t, [&](int d, Index, Index hi, double, const tree::Level<D>&) -> std::array<double, 1> {
-        return {force[d][hi] * uf[d][hi]};
+        return {force[d][hi] * uf[d][hi] * (open ? (*open)[d][hi] : 1.0)};
       },
       [](double h) { return volume_of<D>(h); })[0];
 }
@@ -166,7 +166,7 @@ template double kinetic_energy<2>(const NavierStokes<2>&);
 template double kinetic_energy<3>(const NavierStokes<3>&);
 template FlowEnergy flow_energy<2>(NavierStokes<2>&);
 template FlowEnergy flow_energy<3>(NavierStokes<3>&);
-template double face_power<2>(const tree::Tree<2>&, const FaceField<2>&, const FaceField<2>&);
-template double face_power<3>(const tree::Tree<3>&, const FaceField<3>&, const FaceField<3>&);
+template double face_power<2>(const tree::Tree<2>&, const FaceField<2>&, const FaceField<2>&, const FaceField<2>*);
+template double face_power<3>(const tree::Tree<3>&, const FaceField<3>&, const FaceField<3>&, const FaceField<3>*);
 
 }  // namespace capsflow::fluid

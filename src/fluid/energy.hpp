@@ -53,9 +53,12 @@ template <int D>
 template <int D>
 [[nodiscard]] double kinetic_energy(const NavierStokes<D>& ns);
 
-// sum over the fine faces of force_d uf_d h^D (both fields spanning the tree). Collective
-// on N ranks.
+// sum over the fine faces of force_d uf_d h^D (both fields spanning the tree), each face
+// weighted by its open fraction with embedded walls (open: EmbeddedGeometry::faces(); the
+// projection's inner product, which the near-wall coupling keeps adjoint). Collective on N
+// ranks.
 template <int D>
-[[nodiscard]] double face_power(const tree::Tree<D>& t, const FaceField<D>& force, const FaceField<D>& uf);
+[[nodiscard]] double face_power(const tree::Tree<D>& t, const FaceField<D>& force, const FaceField<D>& uf,
+                                const FaceField<D>* open = nullptr);
 
 }  // namespace capsflow::fluid

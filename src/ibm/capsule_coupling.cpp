@@ -159,7 +159,8 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
     case Cause::wall:
       likely = above ? unstable
                      : stable + ", so the membrane touches the wall: contact forces are not modelled yet (start the "
-                                "capsule further from the walls, or refine so that the kernels reach less far)";
+                                "capsule further from the walls or slow the flow; by the brick's sides, refining "
+                                "shortens the kernels' reach)";
       break;
   }
   throw std::runtime_error(fmt::format("{}. Likely cause: {}.", where, likely));
@@ -178,34 +179,50 @@ void CapsuleCoupling::fail_stencil(int step, int k, const StencilError& e) const
        Cause::band);
 }
 
-double CapsuleCoupling::embedded_wall_reach(int k) const {
-  const KernelChoice& kc = kernels_[static_cast<std::size_t>(k)];
+namespace {
+// Stencil cells lie within support/2 cells of the node along each axis, their faces half a
+// cell further: the box's half-diagonal, plus a cell for the faces of staggered stencils.
+double wall_reach(const KernelChoice& kc, double dx) {
   const bool smoothed = kc.staggered && kc.divergence_free;
   const int support = std::max(support_of(kc.spread, smoothed), support_of(kc.interpolate, smoothed));
-  // Stencil cells lie within support/2 cells of the node along each axis, their faces half
-  // a cell further: the box's half-diagonal, plus a cell for the faces of staggered stencils.
-  const double dx = ns_.tree().cell_size(ns_.tree().max_level());
   return (0.5 * support + 1.5) * dx * std::sqrt(3.0);
 }
+}  // namespace
+
+double CapsuleCoupling::embedded_wall_reach(int k) const {
+  return wall_reach(kernels_[static_cast<std::size_t>(k)], ns_.tree().cell_size(ns_.tree().max_level()));
+}
+
+double CapsuleCoupling::embedded_wall_contact() const { return 0.25 * ns_.tree().cell_size(ns_.tree().max_level()); }
 
 void CapsuleCoupling::check_embedded_walls(int step, int k, const Eigen::Matrix3Xd& at) const {
   const fluid::EmbeddedGeometry<3>* walls = ns_.embedded();
   if (walls == nullptr) return;
-  const double reach = embedded_wall_reach(k);
+  const double contact = embedded_wall_contact();
   // One distance for a membrane far from every wall: phi is 1-Lipschitz, so the nodes lie at
   // least phi(centre) - (their farthest distance from the centre) from the walls.
   const Eigen::Vector3d centre = at.rowwise().mean();
   const double extent = (at.colwise() - centre).colwise().norm().maxCoeff();
-  if (walls->signed_distance({centre[0], centre[1], centre[2]}) - extent > reach) return;
+  if (walls->signed_distance({centre[0], centre[1], centre[2]}) - extent > contact) return;
   for (Eigen::Index n = 0; n < at.cols(); ++n) {
     const double distance = walls->signed_distance({at(0, n), at(1, n), at(2, n)});
-    if (!(distance > reach))
+    if (!(distance > contact))
       fail(step,
-           fmt::format("capsule {}: node {} at ({:.6g}, {:.6g}, {:.6g}) came within the immersed-boundary kernel's reach "
-                       "({:.4g}) of an embedded wall (its distance {:.4g})",
-                       k, n, at(0, n), at(1, n), at(2, n), reach, distance),
+           fmt::format("capsule {}: node {} at ({:.6g}, {:.6g}, {:.6g}) touched an embedded wall (its distance {:.4g}, "
+                       "within a quarter cell {:.4g}; contact forces are not modelled yet)",
+                       k, n, at(0, n), at(1, n), at(2, n), distance, contact),
            Cause::wall);
   }
+}
+
+void CapsuleCoupling::require_open_faces(int step, int k, std::size_t i,
+                                         const std::function<std::int64_t(Eigen::Index)>& node_of) const {
+  for (const WallWeights* w : {spread_walls(i), interpolation_walls(i)})
+    if (w && w->buried() >= 0)
+      fail(step,
+           fmt::format("capsule {}: node {} is inside an embedded wall (no open face in its kernel's reach)", k,
+                       node_of(w->buried())),
+           Cause::wall);
 }
 
 int CapsuleCoupling::required_level(const tree::Box<3>& b) const {
@@ -322,11 +339,12 @@ void CapsuleCoupling::spread_forces(int step) {
     Capsule& c = capsule(k);
     bool& started = c.kernels.staggered ? any_faces_ : any_cells_;
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
+    require_open_faces(step, k, static_cast<std::size_t>(k), [](Eigen::Index n) { return n; });
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
       if (c.kernels.staggered)
         spread_faces(c.kernels.spread, c.kernels.divergence_free, t, at, c.forces, face_force_, workspace_, mode, {},
-                     boxes(static_cast<std::size_t>(k)));
+                     boxes(static_cast<std::size_t>(k)), spread_walls(static_cast<std::size_t>(k)));
       else spread(c.kernels.spread, t, at, c.forces, force_, workspace_, mode);
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
@@ -364,7 +382,7 @@ void CapsuleCoupling::interpolate_velocities(int step) {
       const Eigen::Matrix3Xd& at = stage_positions(c);
       if (c.kernels.staggered)
         interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, c.velocity,
-                          boxes(static_cast<std::size_t>(k)));
+                          boxes(static_cast<std::size_t>(k)), interpolation_walls(static_cast<std::size_t>(k)));
       else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
@@ -444,14 +462,28 @@ void CapsuleCoupling::find_boxes(std::size_t count,
                                  const std::function<const KernelChoice&(std::size_t)>& kernels_of,
                                  const OwnedPositions& own) {
   boxes_.resize(count);
+  spread_walls_.resize(count);
+  interpolation_walls_.resize(count);
+  same_kernel_walls_.assign(count, 0);
+  const fluid::EmbeddedGeometry<3>* walls = ns_.embedded();
+  const double dx = ns_.tree().cell_size(ns_.tree().max_level());
   for (std::size_t i = 0; i < count; ++i) {
     const KernelChoice& kc = kernels_of(i);
+    spread_walls_[i].clear();
+    interpolation_walls_[i].clear();
     if (!kc.staggered) {
       boxes_[i].clear();
+      if (walls) throw std::invalid_argument("ibm: embedded walls need the staggered coupling (staggered = true)");
       continue;
     }
     const std::array kinds{kc.spread, kc.interpolate};
     boxes_[i].find(ns_.tree(), x_of(i), kinds, kc.divergence_free, own);
+    if (!walls) continue;
+    const double reach = wall_reach(kc, dx);
+    spread_walls_[i].find(kc.spread, kc.divergence_free, *walls, ns_.tree(), x_of(i), reach);
+    same_kernel_walls_[i] = kc.interpolate == kc.spread;
+    if (!same_kernel_walls_[i])
+      interpolation_walls_[i].find(kc.interpolate, kc.divergence_free, *walls, ns_.tree(), x_of(i), reach);
   }
 }
 
@@ -463,7 +495,8 @@ void CapsuleCoupling::predict_midpoint(int step) {
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsule(k);
     try {
-      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, *faces, c.x_mid, c.start_velocity, boxes(static_cast<std::size_t>(k)));
+      if (c.kernels.staggered) interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, *faces, c.x_mid, c.start_velocity,
+                                                 boxes(static_cast<std::size_t>(k)), interpolation_walls(static_cast<std::size_t>(k)));
       else interpolate(c.kernels.interpolate, t, u, c.x_mid, c.start_velocity);
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
@@ -508,6 +541,8 @@ void CapsuleCoupling::interpolation() {
   if (distributed()) distributed_interpolation(step);
   else interpolate_velocities(step);
   for (NodeBoxes& b : boxes_) b.clear();  // their arrays are kept: a step's boxes fill them again
+  for (WallWeights& w : spread_walls_) w.clear();
+  for (WallWeights& w : interpolation_walls_) w.clear();
 }
 
 void CapsuleCoupling::motion(const fluid::StepStats& flow, double flow_seconds) {

@@ -56,6 +56,7 @@
 #include "ibm/refinement_tags.hpp"
 #include "ibm/spread.hpp"
 #include "ibm/stencil.hpp"
+#include "ibm/wall_weights.hpp"
 #include "membrane/forces.hpp"
 #include "tree/distributed_forest.hpp"
 
@@ -247,12 +248,15 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // Smallest over the capsules; 0 without capsules.
   [[nodiscard]] double stability_limit() const;
   static constexpr double kInertialLimit = 0.53, kViscousLimit = 0.42;
-  // Embedded walls (fluid/embedded_geometry.hpp): the distance from a node of capsule k
-  // within which an embedded wall may cut a face of its stencils: the half-diagonal of its
-  // widest stencil box at the max level. Capsules stay farther than this from embedded
-  // walls (near-wall spreading and contact come later): the coupling stops a run whose
-  // membrane comes closer, and the case is refused when a capsule starts closer.
+  // Embedded walls (fluid/embedded_geometry.hpp). A node within its kernels' reach of a wall
+  // (the half-diagonal of its widest stencil box at the max level, embedded_wall_reach)
+  // spreads onto and interpolates from the open faces only (wall_weights.hpp). A membrane
+  // touches a wall when a node comes within embedded_wall_contact() of it, a quarter of the
+  // finest cell: closer, the grid cannot put fluid between them, and contact forces are not
+  // modelled yet. The coupling then stops the run (Cause::wall), and a case whose capsule
+  // starts that close is refused.
   [[nodiscard]] double embedded_wall_reach(int k) const;
+  [[nodiscard]] double embedded_wall_contact() const;
   // The fraction of stability_limit() that a solver-chosen dt uses (time.cfl > 0): the
   // measured limits hold for 150 steps; long runs and strong deformations need a margin.
   static constexpr double kSafety = 0.5;
@@ -270,6 +274,15 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[nodiscard]] const NodeBoxes* boxes(std::size_t i) const {
     return i < boxes_.size() && boxes_[i].nodes() > 0 ? &boxes_[i] : nullptr;
   }
+  // The open fractions of the same nodes' stencils next to embedded walls, for the spreading
+  // and the interpolation kernel (nullptr: none near a wall).
+  [[nodiscard]] const WallWeights* spread_walls(std::size_t i) const {
+    return i < spread_walls_.size() && spread_walls_[i].near_nodes() > 0 ? &spread_walls_[i] : nullptr;
+  }
+  [[nodiscard]] const WallWeights* interpolation_walls(std::size_t i) const {
+    if (i < interpolation_walls_.size() && interpolation_walls_[i].near_nodes() > 0) return &interpolation_walls_[i];
+    return same_kernel_walls_[i] ? spread_walls(i) : nullptr;
+  }
   // Where the stages take forces and velocities: X, or X* with the midpoint scheme.
   [[nodiscard]] const Eigen::Matrix3Xd& stage_positions(const Capsule& c) const {
     return scheme_ == NodeScheme::midpoint ? c.x_mid : c.x;
@@ -283,9 +296,13 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[noreturn]] void fail(int step, const std::string& what, Cause cause = Cause::instability) const;
   [[noreturn]] void fail_stencil(int step, int k, const StencilError& e) const;
   [[nodiscard]] Capsule* owned(int i) const;
-  // Embedded walls: fails (Cause::wall) when a node at `at` of capsule k comes within its
-  // kernels' reach of one (nothing without solids).
+  // Embedded walls: fails (Cause::wall) when a node at `at` of capsule k touches one (comes
+  // within embedded_wall_contact(); nothing without solids).
   void check_embedded_walls(int step, int k, const Eigen::Matrix3Xd& at) const;
+  // Fails (Cause::wall) when a node of box set i (capsule k; node_of names its node in the
+  // capsule) has no open face in its stencils: it is inside a solid.
+  void require_open_faces(int step, int k, std::size_t i,
+                          const std::function<std::int64_t(Eigen::Index)>& node_of) const;
   // The nodes' velocities from uf (interpolate_faces per owned capsule), then advance_nodes.
   void interpolate_velocities(int step);
   // X += dt (the scheme's motion) for every owned capsule, each new position checked first.
@@ -345,6 +362,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // This step's stencil boxes (node_boxes.hpp): per capsule on one rank, per routed range on
   // N ranks; found once the stage positions are known, cleared at the step's end.
   std::vector<NodeBoxes> boxes_;
+  std::vector<WallWeights> spread_walls_, interpolation_walls_;
+  std::vector<std::uint8_t> same_kernel_walls_;  // the interpolation reads spread_walls_
   bool force_ready_ = false;
   std::int64_t steps_ = 0;
   std::int64_t since_adapt_ = 0;

@@ -158,8 +158,11 @@ void CapsuleCoupling::spread_routed(int step) {
     const Eigen::Matrix3Xd x = routed_.x.middleCols(range.begin, n), f = routed_.f.middleCols(range.begin, n);
     bool& started = kc.staggered ? any_faces_ : any_cells_;
     const SpreadMode mode = started ? SpreadMode::add : SpreadMode::assign;
+    require_open_faces(step, range.capsule, r,
+                       [&](Eigen::Index i) { return routed_.node[static_cast<std::size_t>(range.begin + i)]; });
     try {
-      if (kc.staggered) spread_faces(kc.spread, kc.divergence_free, t, x, f, face_force_, workspace_, mode, own, boxes(r));
+      if (kc.staggered) spread_faces(kc.spread, kc.divergence_free, t, x, f, face_force_, workspace_, mode, own, boxes(r),
+                                     spread_walls(r));
       else spread(kc.spread, t, x, f, force_, workspace_, mode, own);
     } catch (const StencilError& e) {  // named by the node's index in its capsule
       StencilError::Where w = e.where();
@@ -182,7 +185,8 @@ void CapsuleCoupling::interpolate_routed(int step, const fluid::FaceField<3>& uf
       const KernelChoice& kc = kernels_[static_cast<std::size_t>(range.capsule)];
       const Eigen::Matrix3Xd x = routed_.x.middleCols(range.begin, range.end - range.begin);
       try {
-        interpolate_faces_owned(kc.interpolate, kc.divergence_free, t, uf, x, own, partials[r], boxes(r));
+        interpolate_faces_owned(kc.interpolate, kc.divergence_free, t, uf, x, own, partials[r], boxes(r),
+                                interpolation_walls(r));
       } catch (const StencilError& e) {
         StencilError::Where w = e.where();
         w.node = routed_.node[static_cast<std::size_t>(range.begin + w.node)];

@@ -22,6 +22,15 @@ void require_cell_sized(const tree::Tree<3>& t, const Components& u, const char*
           fmt::format("ibm: interpolate from a {} of {} slots, the tree has {} cells", what, ud.size(), t.num_cells()));
 }
 
+// Next to an embedded wall, each value times its slot's interpolation factor
+// (wall_weights.hpp); one definition for the one-rank and the routed sums.
+void apply_wall_factors(const WallWeights* walls, Eigen::Index i, int d, int size, double* values) {
+  const double* open = walls ? walls->open(i, d) : nullptr;
+  if (!open) return;
+  const double inverse_sum = walls->inverse_sum(i, d);
+  for (int s = 0; s < size; ++s) values[s] *= interpolation_factor(open[s], inverse_sum);
+}
+
 }  // namespace
 
 template <Kernel K>
@@ -69,7 +78,7 @@ void interpolate(const tree::Tree<3>& t, const std::array<std::span<const double
 
 template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                       Eigen::Matrix3Xd& v, const NodeBoxes* boxes) {
+                       Eigen::Matrix3Xd& v, const NodeBoxes* boxes, const WallWeights* walls) {
   constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
   require_cell_sized(t, uf, "face field");
   const Eigen::Index n = x.cols();
@@ -92,6 +101,7 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
       const double* u = uf[d].data();
       double values[kMaxCells];
       for (int s = 0; s < st.size(); ++s) values[s] = u[c[s]];
+      apply_wall_factors(walls, i, d, st.size(), values);
       v(d, i) = box_sum(st, values);
     }
   }
@@ -106,7 +116,8 @@ void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, co
 
 template <Kernel K>
 void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                             const OwnedPositions& own, PartialVelocities& out, const NodeBoxes* boxes) {
+                             const OwnedPositions& own, PartialVelocities& out, const NodeBoxes* boxes,
+                             const WallWeights* walls) {
   constexpr int kMaxCells = kMaxBoxWidth * kMaxBoxWidth * kMaxBoxWidth;
   require_cell_sized(t, uf, "face field");
   const Eigen::Index n = x.cols();
@@ -139,9 +150,12 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
       int present = 0;  // cells of the stencil found here
       for (int s = 0; s < st.size(); ++s) present += c[s] != tree::kNone;
       if (present == 0) continue;
+      const double* open = walls ? walls->open(i, d) : nullptr;
+      const double inverse_sum = open ? walls->inverse_sum(i, d) : 1.0;
       if (present == st.size()) {  // the whole sum here, in box_sum's order
         double values[kMaxCells];
         for (int s = 0; s < st.size(); ++s) values[s] = u[c[s]];
+        apply_wall_factors(walls, i, d, st.size(), values);
         out.kind[k] = PartialVelocities::kSum;
         out.sum[k] = box_sum(st, values);
         continue;
@@ -152,7 +166,7 @@ void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& 
       for (int s = 0; s < st.size(); ++s)
         if (c[s] != tree::kNone) {
           out.slots.push_back(static_cast<std::uint16_t>(s));
-          out.values.push_back(u[c[s]]);
+          out.values.push_back(open ? u[c[s]] * interpolation_factor(open[s], inverse_sum) : u[c[s]]);
         }
     }
   }
@@ -168,17 +182,17 @@ double complete_face_velocity(const tree::TreeOptions<3>& options, double h, con
 }
 
 template void interpolate_faces_owned<CosineKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                                    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
+                                                    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces_owned<HatKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                                 const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
+                                                 const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces_owned<Peskin4Kernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                                     const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
+                                                     const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces_owned<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces_owned<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces_owned<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*);
+    const Eigen::Matrix3Xd&, const OwnedPositions&, PartialVelocities&, const NodeBoxes*, const WallWeights*);
 template double complete_face_velocity<CosineKernel>(const tree::TreeOptions<3>&, double, const double*, int,
                                                      std::span<const double>);
 template double complete_face_velocity<HatKernel>(const tree::TreeOptions<3>&, double, const double*, int,
@@ -193,11 +207,11 @@ template double complete_face_velocity<DivergenceFree<Peskin4Kernel>>(const tree
                                                                       const double*, int, std::span<const double>);
 
 template void interpolate_faces<CosineKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                              const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
+                                              const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces<HatKernel>(const tree::Tree<3>&, const fluid::FaceField<3>&, const Eigen::Matrix3Xd&,
-                                           Eigen::Matrix3Xd&, const NodeBoxes*);
+                                           Eigen::Matrix3Xd&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces<Peskin4Kernel>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-                                               const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
+                                               const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*, const WallWeights*);
 
 template void interpolate<CosineKernel>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
                                         const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
@@ -207,10 +221,10 @@ template void interpolate<Peskin4Kernel>(const tree::Tree<3>&, const std::array<
                                          const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&);
 
 template void interpolate_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*, const WallWeights*);
 template void interpolate_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const fluid::FaceField<3>&,
-    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*);
+    const Eigen::Matrix3Xd&, Eigen::Matrix3Xd&, const NodeBoxes*, const WallWeights*);
 
 }  // namespace capsflow::ibm

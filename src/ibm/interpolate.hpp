@@ -35,6 +35,7 @@
 #include "ibm/kernels.hpp"
 #include "ibm/node_boxes.hpp"
 #include "ibm/stencil.hpp"
+#include "ibm/wall_weights.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::ibm {
@@ -51,17 +52,18 @@ inline void interpolate(KernelKind kind, const tree::Tree<3>& t, const std::arra
 }
 
 // uf: the face velocities (fluid/faces.hpp; valid on the max-level faces of the stencils).
-// boxes: the nodes' stencil boxes found this step (NodeBoxes), or nullptr.
+// boxes: the nodes' stencil boxes found this step (NodeBoxes), or nullptr. walls: the nodes'
+// open fractions next to embedded walls (WallWeights, of this kernel), or nullptr.
 template <Kernel K>
 void interpolate_faces(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                       Eigen::Matrix3Xd& v, const NodeBoxes* boxes = nullptr);
+                       Eigen::Matrix3Xd& v, const NodeBoxes* boxes = nullptr, const WallWeights* walls = nullptr);
 
 // divergence_free: with DivergenceFree<K> (kernels.hpp): V is then exactly divergence-free
 // (as a function of X) wherever uf is discretely.
 inline void interpolate_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
                               const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& v,
-                              const NodeBoxes* boxes = nullptr) {
-  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v, boxes); });
+                              const NodeBoxes* boxes = nullptr, const WallWeights* walls = nullptr) {
+  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { interpolate_faces<K>(t, uf, x, v, boxes, walls); });
 }
 
 // On N ranks (stencil.hpp, OwnedPositions): what this rank knows of each node's face
@@ -80,17 +82,19 @@ struct PartialVelocities {
 };
 
 // Throws StencilError for a stencil cell this rank owns that is not an active leaf of the
-// max level, or one beyond a wall.
+// max level, or one beyond a wall. Next to embedded walls (walls) the values sent are already
+// multiplied by their slots' interpolation factors, so the owner's box_sum is one rank's.
 template <Kernel K>
 void interpolate_faces_owned(const tree::Tree<3>& t, const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
-                             const OwnedPositions& own, PartialVelocities& out, const NodeBoxes* boxes = nullptr);
+                             const OwnedPositions& own, PartialVelocities& out, const NodeBoxes* boxes = nullptr,
+                             const WallWeights* walls = nullptr);
 
 inline void interpolate_faces_owned(KernelKind kind, bool divergence_free, const tree::Tree<3>& t,
                                     const fluid::FaceField<3>& uf, const Eigen::Matrix3Xd& x,
                                     const OwnedPositions& own, PartialVelocities& out,
-                                    const NodeBoxes* boxes = nullptr) {
+                                    const NodeBoxes* boxes = nullptr, const WallWeights* walls = nullptr) {
   with_face_kernel(kind, divergence_free,
-                   [&]<Kernel K>(K) { interpolate_faces_owned<K>(t, uf, x, own, out, boxes); });
+                   [&]<Kernel K>(K) { interpolate_faces_owned<K>(t, uf, x, own, out, boxes, walls); });
 }
 
 // Component d of the velocity at x from the values of every slot of its face stencil, in

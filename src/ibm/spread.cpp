@@ -53,7 +53,7 @@ BoxStencil stencil_of(const tree::TreeOptions<3>& o, double h, const double* x, 
 template <Kernel K>
 void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces, CellVector& f,
                  SpreadWorkspace& ws, int face_axis, int c0, int c1, const OwnedPositions& own,
-                 const NodeBoxes* boxes = nullptr) {
+                 const NodeBoxes* boxes = nullptr, const WallWeights* walls = nullptr) {
   const Eigen::Index n = x.cols();
   CAPSFLOW_ASSERT(!boxes || boxes->nodes() == n, "ibm: spreading with the boxes of other nodes");
   const int level = t.max_level();
@@ -115,13 +115,17 @@ void spread_pass(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen:
         const double* wy = wx + widths[0];
         const double* wz = wy + widths[1];
         const Index* c = ws.cells.data() + i * cells_per_node;
+        // Next to an embedded wall: the open faces only, renormalised (wall_weights.hpp).
+        const double* open = walls && face_axis >= 0 ? walls->open(i, face_axis) : nullptr;
+        const double inverse_sum = open ? walls->inverse_sum(i, face_axis) : 1.0;
         for (int kz = 0, s = 0; kz < widths[2]; ++kz)
           for (int jy = 0; jy < widths[1]; ++jy) {
             const double wyz = wz[kz] * wy[jy];
             for (int ix = 0; ix < widths[0]; ++ix, ++s) {
               const Index cell = c[s];
               if (cell < own_lo || cell >= own_hi) continue;
-              const double wc = wyz * wx[ix];
+              double wc = wyz * wx[ix];
+              if (open) wc *= spread_factor(open[s], inverse_sum);
               for (int k = c0; k < c1; ++k) out[k][cell] += g[k] * wc;
             }
           }
@@ -148,9 +152,11 @@ void spread(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matr
 template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
                   fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode, const OwnedPositions& own,
-                  const NodeBoxes* boxes) {
+                  const NodeBoxes* boxes, const WallWeights* walls) {
+  CAPSFLOW_ASSERT(!walls || walls->near_nodes() == 0 || walls->nodes() == x.cols(),
+                  "ibm: spreading with the wall weights of other nodes");
   prepare(t, x.cols(), forces, f, mode);
-  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1, own, boxes);
+  for (int d = 0; d < 3; ++d) spread_pass<K>(t, x, forces, f, ws, d, d, d + 1, own, boxes, walls);
 }
 
 template void spread<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
@@ -160,17 +166,17 @@ template void spread<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, c
 template void spread<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
                                     CellVector&, SpreadWorkspace&, SpreadMode, const OwnedPositions&);
 template void spread_faces<CosineKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
+                                         fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*, const WallWeights*);
 template void spread_faces<HatKernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
+                                      fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*, const WallWeights*);
 template void spread_faces<Peskin4Kernel>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
+                                          fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*, const WallWeights*);
 
 template void spread_faces<DivergenceFree<CosineKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*, const WallWeights*);
 template void spread_faces<DivergenceFree<HatKernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*, const WallWeights*);
 template void spread_faces<DivergenceFree<Peskin4Kernel>>(const tree::Tree<3>&, const Eigen::Matrix3Xd&, const Eigen::Matrix3Xd&,
-    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*);
+    fluid::FaceField<3>&, SpreadWorkspace&, SpreadMode, const OwnedPositions&, const NodeBoxes*, const WallWeights*);
 
 }  // namespace capsflow::ibm

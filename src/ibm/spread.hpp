@@ -34,6 +34,7 @@
 #include "ibm/kernels.hpp"
 #include "ibm/node_boxes.hpp"
 #include "ibm/stencil.hpp"
+#include "ibm/wall_weights.hpp"
 #include "tree/tree.hpp"
 
 namespace capsflow::ibm {
@@ -70,18 +71,22 @@ inline void spread(KernelKind kind, const tree::Tree<3>& t, const Eigen::Matrix3
 // f: one array per component over the tree's cell slots, slot c the lower face of cell c
 // normal to d (a fluid::FaceField).
 // boxes: the nodes' stencil boxes found this step (NodeBoxes, with the same own), or nullptr.
+// walls: the nodes' open fractions next to embedded walls (WallWeights, of this kernel), or
+// nullptr (no embedded walls).
 template <Kernel K>
 void spread_faces(const tree::Tree<3>& t, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& forces,
                   fluid::FaceField<3>& f, SpreadWorkspace& ws, SpreadMode mode = SpreadMode::assign,
-                  const OwnedPositions& own = {}, const NodeBoxes* boxes = nullptr);
+                  const OwnedPositions& own = {}, const NodeBoxes* boxes = nullptr,
+                  const WallWeights* walls = nullptr);
 
 // divergence_free: with DivergenceFree<K> (kernels.hpp), the adjoint of the divergence-free
 // interpolation.
 inline void spread_faces(KernelKind kind, bool divergence_free, const tree::Tree<3>& t, const Eigen::Matrix3Xd& x,
                          const Eigen::Matrix3Xd& forces, fluid::FaceField<3>& f, SpreadWorkspace& ws,
                          SpreadMode mode = SpreadMode::assign, const OwnedPositions& own = {},
-                         const NodeBoxes* boxes = nullptr) {
-  with_face_kernel(kind, divergence_free, [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode, own, boxes); });
+                         const NodeBoxes* boxes = nullptr, const WallWeights* walls = nullptr) {
+  with_face_kernel(kind, divergence_free,
+                   [&]<Kernel K>(K) { spread_faces<K>(t, x, forces, f, ws, mode, own, boxes, walls); });
 }
 
 // faces = f (or faces + f with SpreadMode::add) on every fine face; coarse faces: the mean of

@@ -76,7 +76,7 @@ TEST(AppErrors, SolidsAreCheckedAndRefusedWhereNotSupportedYet) {
 // A capsule must start beyond its kernels' reach of every embedded wall (contact is not
 // modelled): refused before any work, naming the capsule and the distance.
 TEST(AppErrors, CapsuleStartingAtAnEmbeddedWallIsRefused) {
-  expect_refused(test_cases::post_channel(-1.0), "", "capsule[0].centre: the membrane starts 0.3 from an embedded wall");
+  expect_refused(test_cases::post_channel(-0.705), "", "capsule[0].centre: the membrane starts 0.005 from an embedded wall");
 }
 
 TEST(AppErrors, CapsuleThatDoesNotFit) {

@@ -147,14 +147,27 @@ TEST(AppRestart, RestartRepeatsTheRunExactly) {
 // A capsule carried by the flow into an embedded post stops the run when its membrane comes
 // within its kernels' reach of the wall: exit 3, one line naming the capsule, the step, the
 // time and the node's place; the output so far is kept.
-TEST(AppCapsule, ACapsuleCarriedIntoAnEmbeddedPostStopsTheRun) {
+TEST(AppCapsule, ACapsuleFlowsAroundAnEmbeddedPost) {
+  // Its membrane comes within the kernels' reach of the post (near-wall weights) and wraps
+  // around it without touching it.
   const fs::path dir = scratch("post");
   const fs::path file = write(dir, "post.toml", test_cases::post_channel(-1.25));
+  const auto r = capsflow("run " + file.string() + " --quiet --set time.t_end=0.6 --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto rows = rows_of(dir / "out" / "diagnostics.csv");
+  ASSERT_GT(rows.size(), 2u);
+  ASSERT_EQ(rows[0][8], "volume_rel");
+  EXPECT_LT(std::abs(std::stod(rows.back()[8])), 2e-3);
+}
+
+TEST(AppCapsule, ACapsulePulledIntoAThroatStopsWhenItTouchesTheWall) {
+  const fs::path dir = scratch("throat");
+  const fs::path file = write(dir, "throat.toml", test_cases::throat_channel(-1.1));
   const auto r = capsflow("run " + file.string() + " --quiet --out " + (dir / "out").string(), dir);
   EXPECT_EQ(r.status, 3) << r.err;
-  EXPECT_THAT(r.err, ::testing::HasSubstr("came within the immersed-boundary kernel's reach"));
-  EXPECT_THAT(r.err, ::testing::HasSubstr("of an embedded wall"));
   EXPECT_THAT(r.err, ::testing::HasSubstr("capsule 0: node"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("touched an embedded wall"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("(t = "));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_TRUE(fs::exists(dir / "out" / "diagnostics.csv"));
 }

@@ -176,7 +176,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   // step hands its solves NaN, and the run reports the blow-up after the step. The
   // residual is then infinite (abs_or_infinity), no cycle runs, and the solve reports
   // not converged.
-  ws.resize(t.num_cells(), opt.krylov);
+  ws.resize(t.num_cells(), opt.krylov || opt.krylov_on_growth);
   std::span<double> res = ws.residual, da = ws.correction, scratch = ws.scratch;
   const bool singular = op.singular();
   if (!opt.warm_start) t.for_each_leaf([&](tree::Index c) { a[c] = 0.0; });
@@ -204,10 +204,12 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   // Krylov state: previous direction p, its image q = L0 p, and <p, q>.
   std::span<double> p = ws.direction, q = ws.operated;
   double pq_old = 0.0;
+  bool krylov = opt.krylov;
+  int krylov_steps = 0;
   // No cycle can repair a non-finite residual: stop at once.
   while (stats.cycles < opt.max_cycles && (stats.cycles < opt.min_cycles || current > opt.tolerance) &&
          std::isfinite(current)) {
-    if (!opt.krylov) {
+    if (!krylov) {
       // a += da; a ghost's a is wrong here (its da was fused in before the exchange) until
       // compute_residual's sync brings the owners' values.
       vcycle(op, res, da, scratch, opt, a, restricted);
@@ -216,7 +218,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       vcycle(op, res, da, scratch, opt, {}, restricted);
       if (singular) detail::remove_mean(op, da);
       double beta = 0.0;
-      if (stats.cycles > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
+      if (krylov_steps++ > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
       t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });
       t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic);
       op.apply_leaves(p, q);  // L0 p: p's boundary cells hold homogeneous values
@@ -225,9 +227,11 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       t.for_each_leaf([&](tree::Index c) { a[c] += step * p[c]; });
     }
     fix_mean();
+    const double previous = current;
     current = compute_residual();
     stats.residuals.push_back(current);
     ++stats.cycles;
+    if (!krylov && opt.krylov_on_growth && current > previous) krylov = stats.switched_to_krylov = true;
   }
   stats.final_residual = current;
   stats.converged = current <= opt.tolerance;

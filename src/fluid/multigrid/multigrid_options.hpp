@@ -30,6 +30,11 @@ struct MultigridOptions {
   // instead of iterating cycles alone: robust to large coefficient jumps (a 1000x density
   // or viscosity ratio), where coarse levels misrepresent the operator.
   bool krylov = false;
+  // Plain cycles until one of them makes the residual grow, then the Krylov iteration from
+  // there (MultigridStats::switched_to_krylov): for operators whose coarse levels may
+  // misrepresent them somewhere (embedded walls whose cut cells crowd a coarse cell), at no
+  // cost where the cycles converge.
+  bool krylov_on_growth = false;
 };
 
 struct [[nodiscard]] MultigridStats {
@@ -38,6 +43,7 @@ struct [[nodiscard]] MultigridStats {
   double final_residual = 0.0;
   bool converged = false;
   std::vector<double> residuals;  // max |residual| before the first cycle and after each
+  bool switched_to_krylov = false;  // krylov_on_growth took effect
 
   // Geometric mean of the residual reduction over the first `n` cycles.
   double mean_reduction(int n) const;
