@@ -73,7 +73,10 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
       case io::InflowProfile::uniform: f.profile = fluid::InflowProfile::uniform; break;
       case io::InflowProfile::parabolic: f.profile = fluid::InflowProfile::parabolic; break;
       case io::InflowProfile::square_duct: f.profile = fluid::InflowProfile::square_duct; break;
+      case io::InflowProfile::pipe: f.profile = fluid::InflowProfile::pipe; break;
     }
+    f.pipe_radius = b.radius;
+    for (int d = 0; d < D; ++d) f.pipe_centre[d] = b.centre[d];
   }
   o.projection = {.tolerance = c.fluid.multigrid.tolerance, .max_cycles = c.fluid.multigrid.max_cycles};
   o.viscous = o.projection;

@@ -46,6 +46,18 @@ std::function<double(const tree::Point<D>&)> inflow_speed(const SideFlow<D>& s, 
         }
         return v;
       };
+    case InflowProfile::pipe: {
+      if constexpr (D != 3) fail<D>(side, "the pipe profile needs a 3D domain");
+      if (!(s.pipe_radius > 0.0) || !std::isfinite(s.pipe_radius)) fail<D>(side, "the pipe profile needs a radius > 0");
+      const double r2 = s.pipe_radius * s.pipe_radius;
+      const std::array<double, D> axis = s.pipe_centre;
+      return [=](const tree::Point<D>& x) {
+        double rho2 = 0.0;
+        for (int d = 0; d < D; ++d)
+          if (d != n) rho2 += (x[d] - axis[d]) * (x[d] - axis[d]);
+        return rho2 < r2 ? 2.0 * mean * (1.0 - rho2 / r2) : 0.0;
+      };
+    }
     case InflowProfile::square_duct: {
       if constexpr (D != 3) fail<D>(side, "the square_duct profile needs a 3D domain");
       const int t1 = (n + 1) % D, t2 = (n + 2) % D;

@@ -20,7 +20,7 @@
 namespace capsflow::fluid {
 
 enum class SideKind { wall, moving_wall, inflow, outflow, periodic, prescribed };
-enum class InflowProfile { uniform, parabolic, square_duct };
+enum class InflowProfile { uniform, parabolic, square_duct, pipe };
 
 template <int D>
 struct SideFlow {
@@ -28,6 +28,10 @@ struct SideFlow {
   std::array<double, D> velocity{};  // moving_wall: the wall velocity (tangential)
   InflowProfile profile = InflowProfile::uniform;
   double mean_velocity = 1.0;  // inflow: mean normal velocity entering the domain
+  // pipe: Poiseuille flow 2 U (1 - r^2 / R^2) within r < R of the side's normal through
+  // pipe_centre (U the mean over that disc; 0 beyond it), the inflow of a circular tube.
+  double pipe_radius = 0.0;
+  std::array<double, D> pipe_centre{};
   // prescribed: velocity component `d` at x and time t (exact solutions, general inlets).
   std::function<double(const tree::Point<D>&, int d, double t)> prescribed;
 };

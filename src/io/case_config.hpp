@@ -20,7 +20,7 @@
 namespace capsflow::io {
 
 enum class BoundaryType : unsigned char { wall, moving_wall, inflow, outflow, periodic };
-enum class InflowProfile : unsigned char { uniform, square_duct, parabolic };
+enum class InflowProfile : unsigned char { uniform, square_duct, parabolic, pipe };
 enum class MembraneLaw : unsigned char { skalak, neo_hookean };
 enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
 enum class KernelType : unsigned char { cosine, hat, peskin4 };
@@ -53,6 +53,10 @@ struct BoundaryConfig {
   std::array<double, 3> velocity{};                 // moving_wall: wall velocity (tangential)
   InflowProfile profile = InflowProfile::uniform;   // inflow
   double mean_velocity = 1.0;                       // inflow: mean normal velocity into the domain
+  // inflow with profile = "pipe": Poiseuille flow in a circular pipe of this radius whose axis
+  // is the side's normal through `centre` (a point of the side; default its centre).
+  double radius = 0.0;
+  std::array<double, 3> centre{};
   bool operator==(const BoundaryConfig&) const = default;
 };
 

@@ -16,9 +16,10 @@ inline constexpr NameTable<BoundaryType, 5> kBoundaryTypes{{{BoundaryType::wall,
                                                             {BoundaryType::inflow, "inflow"},
                                                             {BoundaryType::outflow, "outflow"},
                                                             {BoundaryType::periodic, "periodic"}}};
-inline constexpr NameTable<InflowProfile, 3> kInflowProfiles{{{InflowProfile::uniform, "uniform"},
+inline constexpr NameTable<InflowProfile, 4> kInflowProfiles{{{InflowProfile::uniform, "uniform"},
                                                               {InflowProfile::square_duct, "square_duct"},
-                                                              {InflowProfile::parabolic, "parabolic"}}};
+                                                              {InflowProfile::parabolic, "parabolic"},
+                                                              {InflowProfile::pipe, "pipe"}}};
 inline constexpr NameTable<MembraneLaw, 2> kMembraneLaws{{{MembraneLaw::skalak, "skalak"},
                                                           {MembraneLaw::neo_hookean, "neo_hookean"}}};
 inline constexpr NameTable<InitialShape, 3> kInitialShapes{{{InitialShape::sphere, "sphere"},

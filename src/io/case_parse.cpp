@@ -33,7 +33,7 @@ void parse_domain(TableReader r, int dim, DomainConfig& d) {
   r.finish();
 }
 
-void parse_side(TableReader r, int dim, BoundaryConfig& b) {
+void parse_side(TableReader r, int dim, const std::array<double, 3>& side_centre, BoundaryConfig& b) {
   if (!r.read("type", b.type, detail::kBoundaryTypes))
     r.missing("type", "wall, moving_wall, inflow, outflow or periodic");
   // Keys of another type are reported as such, not as unknown keys.
@@ -51,6 +51,15 @@ void parse_side(TableReader r, int dim, BoundaryConfig& b) {
   if (b.type == BoundaryType::inflow) {
     r.read("profile", b.profile, detail::kInflowProfiles);
     r.read("mean_velocity", b.mean_velocity);
+    for (const std::string_view key : {"radius", "centre"})
+      if (b.profile != InflowProfile::pipe && r.has(key))
+        r.source().fail(r.key_path(key), detail::toml_repr(*r.node(key)),
+                        fmt::format("only used with profile = \"pipe\" (this side's is \"{}\")", to_string(b.profile)));
+    if (b.profile == InflowProfile::pipe) {
+      if (!r.read("radius", b.radius)) r.missing("radius", "a pipe profile needs the pipe's radius");
+      b.centre = side_centre;
+      r.read("centre", b.centre, dim);
+    }
   }
   r.finish();
 }
@@ -63,7 +72,13 @@ void parse_boundary(TableReader r, const DomainConfig& domain, int dim, FluidCon
     const std::string_view name = detail::kSideNames[s];
     const int d = s / 2;
     if (const toml::table* t = r.table(name)) {
-      parse_side(TableReader(*t, r.key_path(name), r.source()), dim, f.boundary[s]);
+      std::array<double, 3> side_centre{};  // the centre of the side, the pipe profile's default axis
+      for (int a = 0; a < dim; ++a) {
+        const double extent = domain.roots[static_cast<std::size_t>(a)] * domain.root_size;
+        side_centre[static_cast<std::size_t>(a)] =
+            domain.origin[static_cast<std::size_t>(a)] + (a == d ? (s & 1) * extent : 0.5 * extent);
+      }
+      parse_side(TableReader(*t, r.key_path(name), r.source()), dim, side_centre, f.boundary[s]);
     } else if (domain.periodic[d]) {
       f.boundary[s] = {.type = BoundaryType::periodic};
     } else {

@@ -101,9 +101,13 @@ void check_boundary(const CaseConfig& c, const Checker& ck) {
     }
     if (b.type == BoundaryType::inflow) {
       ck.positive(key + ".mean_velocity", b.mean_velocity);
-      if (b.profile == InflowProfile::square_duct && dim != 3)
+      if ((b.profile == InflowProfile::square_duct || b.profile == InflowProfile::pipe) && dim != 3)
         ck.fail(key + ".profile", toml_string(to_string(b.profile)),
-                "the square-duct profile needs dimension = 3 (use \"parabolic\" in 2D)");
+                fmt::format("the {} profile needs dimension = 3 (use \"parabolic\" in 2D)", to_string(b.profile)));
+      if (b.profile == InflowProfile::pipe) {
+        ck.positive(key + ".radius", b.radius);
+        for (int i = 0; i < dim; ++i) ck.finite(fmt::format("{}.centre[{}]", key, i), b.centre[i]);
+      }
     }
   }
 }

@@ -33,6 +33,9 @@ std::string side_repr(const BoundaryConfig& s, int dim) {
     case BoundaryType::moving_wall:
       return fmt::format("{{ type = \"moving_wall\", velocity = {} }}", array_repr(s.velocity, dim));
     case BoundaryType::inflow:
+      if (s.profile == InflowProfile::pipe)
+        return fmt::format("{{ type = \"inflow\", profile = \"pipe\", mean_velocity = {}, radius = {}, centre = {} }}",
+                           toml_number(s.mean_velocity), toml_number(s.radius), array_repr(s.centre, dim));
       return fmt::format("{{ type = \"inflow\", profile = {}, mean_velocity = {} }}",
                          toml_string(to_string(s.profile)), toml_number(s.mean_velocity));
     default: return fmt::format("{{ type = {} }}", toml_string(to_string(s.type)));

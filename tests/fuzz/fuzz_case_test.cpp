@@ -52,7 +52,7 @@ std::vector<std::string> known_keys(const std::vector<Case>& cases) {
     }
   }
   for (const char* side : {"x_lo", "x_hi", "y_lo", "y_hi", "z_lo", "z_hi"})
-    for (const char* k : {"type", "velocity", "profile", "mean_velocity"})
+    for (const char* k : {"type", "velocity", "profile", "mean_velocity", "radius", "centre"})
       keys.insert(std::string("fluid.boundary.") + side + "." + k);
   keys.insert("capsule[1].radius");
   keys.insert("capsule[2].centre");

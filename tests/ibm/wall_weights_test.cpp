@@ -85,7 +85,8 @@ TEST(WallWeights, ANodesSpreadForceLandsOnOpenFacesAndSumsToTheNodeForce) {
     const Eigen::Matrix3Xd xi = s.x.col(i);
     WallWeights one;
     one.find(KernelKind::cosine, true, s.walls, s.t, xi, 1.0);
-    const Eigen::Vector3d force(0.3 - 0.01 * i, -1.1, 0.7 + 0.02 * i);
+    const double k = static_cast<double>(i);
+    const Eigen::Vector3d force(0.3 - 0.01 * k, -1.1, 0.7 + 0.02 * k);
     fluid::FaceField<3> f;
     spread_faces<Kernel>(s.t, xi, force, f, ws, SpreadMode::assign, {}, nullptr, &one);
     EXPECT_LT((fluid_total(s, f) - force).cwiseAbs().maxCoeff(), 1e-13 * force.norm()) << "node " << i;
@@ -93,7 +94,9 @@ TEST(WallWeights, ANodesSpreadForceLandsOnOpenFacesAndSumsToTheNodeForce) {
     const auto& lv = s.t.level(s.t.max_level());
     for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
       for (int d = 0; d < 3; ++d)
-        if (s.walls.faces()[d][c] == 0.0) ASSERT_EQ(f[d][c], 0.0) << "node " << i << " face " << c;
+        if (s.walls.faces()[d][c] == 0.0) {
+          ASSERT_EQ(f[d][c], 0.0) << "node " << i << " face " << c;
+        }
     for (int d = 0; d < 3; ++d) cut += one.open(0, d) != nullptr;
   }
   EXPECT_GT(cut, 100);

@@ -54,6 +54,28 @@ TEST(io_case_errors, HugeKeysAndValuesAreAbbreviated) {
   EXPECT_THAT(message, ::testing::StartsWith("case.toml: --set fluid.Re="));
 }
 
+// profile = "pipe" (a circular tube's inflow): its radius is required, its axis defaults to
+// the side's centre, both are written back; its keys belong to that profile only.
+TEST(io_case_errors, PipeInflowProfileKeys) {
+  const std::string channel = replace(std::string(kBase), "periodic = [true, false, false]", "");
+  const std::string pipe = channel + "x_hi = { type = \"outflow\" }\n";
+  const CaseConfig c = parse_case_text(
+      pipe + "x_lo = { type = \"inflow\", profile = \"pipe\", radius = 0.9, mean_velocity = 2.0 }\n", "c");
+  EXPECT_EQ(c.fluid.boundary[0].profile, InflowProfile::pipe);
+  EXPECT_EQ(c.fluid.boundary[0].radius, 0.9);
+  EXPECT_EQ(c.fluid.boundary[0].centre, (std::array{-4.0, 0.0, 0.0}));
+  EXPECT_EQ(parse_case_text(to_toml(c), "c"), c);
+  const CaseConfig off = parse_case_text(
+      pipe + "x_lo = { type = \"inflow\", profile = \"pipe\", radius = 0.5, centre = [-4, 0.2, 0.1] }\n", "c");
+  EXPECT_EQ(off.fluid.boundary[0].centre, (std::array{-4.0, 0.2, 0.1}));
+  EXPECT_THAT(error_of(pipe + "x_lo = { type = \"inflow\", profile = \"pipe\" }\n"),
+              HasSubstr("fluid.boundary.x_lo.radius"));
+  EXPECT_THAT(error_of(pipe + "x_lo = { type = \"inflow\", profile = \"pipe\", radius = -1.0 }\n"),
+              HasSubstr("fluid.boundary.x_lo.radius = -1.0: must be > 0"));
+  EXPECT_THAT(error_of(pipe + "x_lo = { type = \"inflow\", profile = \"square_duct\", radius = 0.5 }\n"),
+              HasSubstr("only used with profile = \"pipe\""));
+}
+
 TEST(io_case_errors, NegativeTimeStep) {
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ndt = -0.001\n"),
               HasSubstr("case.toml: time.dt = -0.001: must be > 0"));
