@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <optional>
@@ -25,6 +26,7 @@
 #include "app/progress.hpp"
 #include "app/rank_zero.hpp"
 #include "fluid/adaptation.hpp"
+#include "fluid/embedded_surface.hpp"
 #include "fluid/navier_stokes.hpp"
 #include "fluid/time_step.hpp"
 #include "io/atomic_write.hpp"
@@ -33,9 +35,11 @@
 #include "io/checkpoint.hpp"
 #include "io/diagnostics_csv.hpp"
 #include "io/pvd_series.hpp"
+#include "io/vtu_surface.hpp"
 #include "io/vtu_tree.hpp"
 #include "parallel/collective_counts.hpp"
 #include "parallel/comm.hpp"
+#include "parallel/sparse_exchange.hpp"
 #include "tree/distributed_forest.hpp"
 
 namespace capsflow::app {
@@ -212,6 +216,7 @@ class FlowRun {
                                                             : io::PvdSeries(out_ / "series.pvd");
       if (request_.restart) series->truncate_after(ns_.time());
     });
+    if (c.output.vtu) write_wall_surface();
     if (!request_.restart && c.output.vtu) snapshot(series, step);
 
     const auto start = std::chrono::steady_clock::now();
@@ -426,6 +431,32 @@ class FlowRun {
   [[noreturn]] void stop_interrupted(long step, double dt) {
     progress_.finish();
     throw Interrupted(interrupt_signal(), step, ns_.time(), checkpoint(step, dt));
+  }
+
+  // walls.vtu: the embedded walls as triangles (fluid/embedded_surface.hpp), for ParaView, on
+  // the tree the run starts from; on N ranks gathered on rank 0 (one surface, rank by rank).
+  void write_wall_surface() const {
+    if constexpr (D == 3) {
+      if (!ns_.embedded()) return;
+      std::vector<double> triangles = fluid::wall_surface(*ns_.embedded());
+      if (forest_) {
+        std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(comm_.size()));
+        send[0].resize(triangles.size());
+        std::memcpy(send[0].data(), triangles.data(), triangles.size() * sizeof(double));
+        const auto received = parallel::sparse_exchange(comm_, send);
+        triangles.clear();
+        for (const auto& part : received) {
+          const std::size_t at = triangles.size();
+          triangles.resize(at + part.size());
+          std::memcpy(triangles.data() + at, part.data(), part.size() * sizeof(double));
+        }
+      }
+      on_root(comm_, [&] {
+        std::vector<std::int32_t> elements(triangles.size() / 3);
+        for (std::size_t k = 0; k < elements.size(); ++k) elements[k] = static_cast<std::int32_t>(k);
+        io::write_surface_vtu(out_ / "walls.vtu", {.positions = triangles, .elements = elements});
+      });
+    }
   }
 
   // fluid_NNNNNN.vtu on one rank; on N ranks each rank writes its owned leaves as a piece of

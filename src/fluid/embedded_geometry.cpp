@@ -104,7 +104,7 @@ void EmbeddedGeometry<D>::rebuild() {
 }
 
 template <int D>
-void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
+std::array<double, (1 << D)> EmbeddedGeometry<D>::corner_values(Index c, int l) const {
   const tree::Level<D>& lv = tree_.level(l);
   const tree::TreeOptions<D>& o = tree_.options();
   const double h = tree_.cell_size(l);
@@ -122,7 +122,15 @@ void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
     }
     phi[static_cast<std::size_t>(b)] = signed_distance(x);
   }
-  const geometry::CellCut<D> cut = geometry::cut_cell<D>(phi);
+  return phi;
+}
+
+template <int D>
+void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
+  const tree::TreeOptions<D>& o = tree_.options();
+  const double h = tree_.cell_size(l);
+  const tree::Coords<D> ijk = slot_coords<D>(tree_.level(l), c);
+  const geometry::CellCut<D> cut = geometry::cut_cell<D>(corner_values(c, l));
   const auto s = static_cast<std::size_t>(c);
   volume_[s] = cut.volume;
   for (int d = 0; d < D; ++d) {

@@ -46,6 +46,10 @@ class EmbeddedGeometry {
   void rebuild();
 
   const geometry::Solid& solid() const { return *solid_; }
+  const tree::Tree<D>& tree() const { return tree_; }
+  // phi at the 2^D corners of cell c of level l (corner b: coordinate d = bit d of b), wrapped
+  // along periodic directions: what the cut of c is made from.
+  std::array<double, (1 << D)> corner_values(Index c, int l) const;
   // phi at a point of the brick (2D cases: the section z = 0 of the solid); > 0 in the fluid.
   double signed_distance(const tree::Point<D>& x) const;
   // Whether some point within `margin` of the box b may be solid or on the wall (false only

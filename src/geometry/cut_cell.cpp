@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -58,11 +59,20 @@ double simplex_fluid_fraction(const std::array<double, N + 1>& f) {
   return 0.0;  // unreachable: a triangle or a segment has one solid or one fluid vertex
 }
 
+// Appends triangle (a, b, c) as 9 coordinates (only triangles of positive area are kept: a
+// wall through corners leaves degenerate pieces).
+template <class V>
+void add_triangle(std::vector<std::array<double, 9>>& out, const V& a, const V& b, const V& c) {
+  out.push_back({a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]});
+}
+
 // The wall piece inside one simplex of the cell (positions in cell units): its area vector
 // (into the solid), area and first moment (area times centroid), added to `cut`.
+// triangles (3D): the piece's triangles are appended, each oriented out of the solid.
 template <int D>
 void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, const std::array<double, D + 1>& f,
-                    CellCut<D>& cut, Eigen::Matrix<double, D, 1>& moment) {
+                    CellCut<D>& cut, Eigen::Matrix<double, D, 1>& moment,
+                    std::vector<std::array<double, 9>>* triangles = nullptr) {
   using V = Eigen::Matrix<double, D, 1>;
   std::array<int, D + 1> solid{}, fluid{};
   int ns = 0, nf = 0;
@@ -94,7 +104,9 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
       V q[3];
       for (int j = 0; j < 3; ++j) q[j] = ns == 1 ? point(apex, others[j]) : point(others[j], apex);
       triangle(q[0], q[1], q[2], area_vector, area, centroid);
-      if (area_vector.dot(from_fluid - q[0]) > 0.0) area_vector = -area_vector;
+      const bool flip = area_vector.dot(from_fluid - q[0]) > 0.0;
+      if (flip) area_vector = -area_vector;
+      if (triangles && area > 0.0) add_triangle(*triangles, q[0], flip ? q[1] : q[2], flip ? q[2] : q[1]);
     } else {  // the planar quadrilateral Ppa, Ppb, Pqb, Pqa (cyclic)
       const int a = solid[0], b = solid[1], p = fluid[0], q = fluid[1];
       const V pa = point(a, p), pb = point(b, p), qb = point(b, q), qa = point(a, q);
@@ -103,7 +115,10 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
       triangle(pa, pb, qb, v1, a1, m1);
       triangle(pa, qb, qa, v2, a2, m2);
       area_vector = v1 + v2;  // the two halves are coplanar and equally oriented
-      if (area_vector.dot(from_fluid - pa) > 0.0) area_vector = -area_vector;
+      const bool flip = area_vector.dot(from_fluid - pa) > 0.0;
+      if (flip) area_vector = -area_vector;
+      if (triangles && a1 > 0.0) add_triangle(*triangles, pa, flip ? pb : qb, flip ? qb : pb);
+      if (triangles && a2 > 0.0) add_triangle(*triangles, pa, flip ? qb : qa, flip ? qa : qb);
       area = a1 + a2;
       centroid = area > 0.0 ? V((a1 * m1 + a2 * m2) / area) : pa;
     }
@@ -126,8 +141,9 @@ double face_fraction(const std::array<double, (1 << (D - 1))>& phi) {
   }
 }
 
+namespace {
 template <int D>
-CellCut<D> cut_cell(const std::array<double, (1 << D)>& phi) {
+CellCut<D> cut_with_triangles(const std::array<double, (1 << D)>& phi, std::vector<std::array<double, 9>>* triangles) {
   constexpr int C = 1 << D;
   CellCut<D> cut;
   const bool all_fluid = std::ranges::all_of(phi, [](double v) { return v > 0.0; });
@@ -165,13 +181,25 @@ CellCut<D> cut_cell(const std::array<double, (1 << D)>& phi) {
       f[static_cast<std::size_t>(k + 1)] = phi[static_cast<std::size_t>(corner)];
     }
     volume += kSimplexMeasure[D] * simplex_fluid_fraction<D>(f);
-    add_wall_piece<D>(x, f, cut, moment);
+    add_wall_piece<D>(x, f, cut, moment, triangles);
   } while (std::next_permutation(order.begin(), order.end()));
   static_assert(C == (1 << D));
   cut.volume = std::clamp(volume, 0.0, 1.0);
   if (cut.wall_area > 0.0)
     for (int d = 0; d < D; ++d) cut.wall_centroid[static_cast<std::size_t>(d)] = moment[d] / cut.wall_area;
   return cut;
+}
+}  // namespace
+
+template <int D>
+CellCut<D> cut_cell(const std::array<double, (1 << D)>& phi) {
+  return cut_with_triangles<D>(phi, nullptr);
+}
+
+std::vector<std::array<double, 9>> wall_triangles(const std::array<double, 8>& phi) {
+  std::vector<std::array<double, 9>> out;
+  (void)cut_with_triangles<3>(phi, &out);
+  return out;
 }
 
 template CellCut<2> cut_cell<2>(const std::array<double, 4>&);

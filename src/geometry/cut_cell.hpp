@@ -15,6 +15,7 @@
 // The embedded-boundary operators read these numbers; the tree-wide assembly is
 // fluid/embedded_geometry.
 #include <array>
+#include <vector>
 
 namespace capsflow::geometry {
 
@@ -41,6 +42,13 @@ template <int D>
 // remaining axis first): what cut_cell gives for that face, for a caller that has one face.
 template <int D>
 [[nodiscard]] double face_fraction(const std::array<double, (1 << (D - 1))>& phi);
+
+// The wall of the unit cell with corner values phi (3D): the triangles of its piecewise-linear
+// zero set on the Freudenthal simplices, the wall whose area and area vector cut_cell gives,
+// each triangle (x0, x1, x2) in cell coordinates, 9 numbers, oriented so that
+// (x1 - x0) x (x2 - x0) points out of the solid. None for a cell wholly on one side. For
+// ParaView (the wall as a surface).
+[[nodiscard]] std::vector<std::array<double, 9>> wall_triangles(const std::array<double, 8>& phi);
 
 extern template CellCut<2> cut_cell<2>(const std::array<double, 4>&);
 extern template CellCut<3> cut_cell<3>(const std::array<double, 8>&);

@@ -4,6 +4,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include <vtkCell.h>
 #include <vtkNew.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLDataElement.h>
@@ -146,6 +149,39 @@ TEST(AppOutput, UnusableOutIsRefusedBeforeWork) {
     fs::permissions(dir / "locked", fs::perms::owner_read | fs::perms::owner_exec);
     EXPECT_EQ(capsflow(cavity("--out " + (dir / "locked" / "o").string()), dir).status, 2);
   }
+}
+
+}  // namespace
+}  // namespace capsflow::app
+
+namespace capsflow::app {
+namespace {
+
+// The embedded walls as a surface ParaView reads (walls.vtu): the constricted channel's slab
+// inside the brick, two faces of 2 x 2 less the hole (pi 0.5^2 each) and the hole's side
+// (2 pi 0.5 x 1), 9.57 in all, to the cut cells' second order at dx = 1/16.
+TEST(AppOutput, TheEmbeddedWallsAreASurfaceParaViewReads) {
+  const fs::path dir = scratch("walls_surface");
+  const auto r = capsflow("run " + std::string(CAPSFLOW_CASES_DIR) +
+                              "/constriction_stokes.toml --quiet --set time.t_end=0.01 --out " + (dir / "out").string(),
+                          dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  vtkNew<vtkXMLUnstructuredGridReader> reader;
+  reader->SetFileName((dir / "out" / "walls.vtu").c_str());
+  reader->Update();
+  vtkUnstructuredGrid* grid = reader->GetOutput();
+  ASSERT_GT(grid->GetNumberOfCells(), 1000);
+  double area = 0.0;
+  for (vtkIdType k = 0; k < grid->GetNumberOfCells(); ++k) {
+    double p[3][3];
+    for (int v = 0; v < 3; ++v) grid->GetPoint(grid->GetCell(k)->GetPointId(v), p[v]);
+    const double u[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+    const double w[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+    area += 0.5 * std::sqrt(std::pow(u[1] * w[2] - u[2] * w[1], 2) + std::pow(u[2] * w[0] - u[0] * w[2], 2) +
+                            std::pow(u[0] * w[1] - u[1] * w[0], 2));
+  }
+  const double exact = 2.0 * (4.0 - M_PI * 0.25) + M_PI;
+  EXPECT_NEAR(area, exact, 0.01 * exact);
 }
 
 }  // namespace

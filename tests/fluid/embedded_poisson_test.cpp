@@ -217,8 +217,11 @@ TEST(EmbeddedPoisson, ThePressureSolveInAConstrictedTubeConverges) {
   std::printf("constricted tube: %d cycles, switched to Krylov %d\n", s.cycles, s.switched_to_krylov);
   EXPECT_TRUE(s.converged) << "residual " << s.final_residual;
   EXPECT_LE(s.cycles, 30);
-  for (const Index c : t.leaves())
-    if (!(g.volume()[static_cast<std::size_t>(c)] > 0.0)) EXPECT_EQ(p[static_cast<std::size_t>(c)], 0.0);
+  for (const Index c : t.leaves()) {
+    if (!(g.volume()[static_cast<std::size_t>(c)] > 0.0)) {
+      EXPECT_EQ(p[static_cast<std::size_t>(c)], 0.0);
+    }
+  }
 }
 
 }  // namespace

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Geometry>
+
 namespace capsflow::geometry {
 namespace {
 
@@ -190,6 +192,43 @@ TEST(CutCell, AWallOnAFaceIsTheFluidCellsOwn) {
   const CellCut<2> corner = cut_cell<2>({0.0, 1.0, 1.0, 2.0});
   EXPECT_EQ(corner.volume, 1.0);
   EXPECT_FALSE(corner.cut());
+}
+
+}  // namespace
+}  // namespace capsflow::geometry
+
+namespace capsflow::geometry {
+namespace {
+
+// The wall as triangles (for ParaView) is the wall cut_cell measures: on random bent walls
+// their areas sum to its area and their oriented area vectors (out of the solid) to minus
+// its area vector (into the solid); every vertex lies in the cell.
+TEST(CutCell, WallTrianglesAreTheMeasuredWall) {
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int cut_cells = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::array<double, 8> phi{};
+    for (double& v : phi) v = u(rng);
+    if (trial % 7 == 0) phi[static_cast<std::size_t>(trial % 8)] = 0.0;  // a corner on the wall
+    const CellCut<3> cut = cut_cell<3>(phi);
+    const auto triangles = wall_triangles(phi);
+    Eigen::Vector3d vector = Eigen::Vector3d::Zero();
+    double area = 0.0;
+    for (const auto& t : triangles) {
+      const Eigen::Vector3d a(t[0], t[1], t[2]), b(t[3], t[4], t[5]), c(t[6], t[7], t[8]);
+      for (const Eigen::Vector3d& p : {a, b, c}) ASSERT_TRUE((p.array() >= -1e-15).all() && (p.array() <= 1 + 1e-15).all());
+      const Eigen::Vector3d v = 0.5 * (b - a).cross(c - a);
+      vector += v;
+      area += v.norm();
+    }
+    EXPECT_NEAR(area, cut.wall_area, 1e-13) << "trial " << trial;
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(vector[d], -cut.wall[static_cast<std::size_t>(d)], 1e-13) << "trial " << trial;
+    EXPECT_EQ(triangles.empty(), !cut.cut()) << "trial " << trial;
+    cut_cells += cut.cut();
+  }
+  EXPECT_GT(cut_cells, 1500);
+  EXPECT_TRUE(wall_triangles({1, 1, 1, 1, 1, 1, 1, 1}).empty());
 }
 
 }  // namespace

@@ -6,7 +6,10 @@
 #include <cmath>
 #include <cstdint>
 
+#include <Eigen/Geometry>
+
 #include "fluid/embedded_geometry.hpp"
+#include "fluid/embedded_surface.hpp"
 #include "fluid/multigrid/elliptic_operator.hpp"
 #include "fluid/multigrid/embedded_coefficients.hpp"
 #include "fluid/multigrid/multigrid.hpp"
@@ -58,6 +61,21 @@ void check_against_serial(const TreeOptions<D>& o, const geometry::SolidPtr& sol
   for (const Index c : serial.leaves())
     fluid_serial.add(gs.volume()[static_cast<std::size_t>(c)] * std::pow(serial.cell_size(serial.level_of(c)), D));
   EXPECT_EQ(t.global_sum(fluid), fluid_serial.value());
+  if constexpr (D == 3) {  // the walls' surface for ParaView: each rank its owned leaves' part
+    auto count_and_area = [](const std::vector<double>& tri) {
+      parallel::ExactSum area;
+      for (std::size_t k = 0; k + 9 <= tri.size(); k += 9) {
+        const Eigen::Vector3d a(tri[k], tri[k + 1], tri[k + 2]), b(tri[k + 3], tri[k + 4], tri[k + 5]),
+            c(tri[k + 6], tri[k + 7], tri[k + 8]);
+        area.add(0.5 * (b - a).cross(c - a).norm());
+      }
+      return std::pair{static_cast<std::int64_t>(tri.size() / 9), area};
+    };
+    auto [count, area] = count_and_area(fluid::wall_surface(g));
+    const auto [count_serial, area_serial] = count_and_area(fluid::wall_surface(gs));
+    EXPECT_EQ(parallel::global_sum(comm, count), count_serial);
+    EXPECT_EQ(t.global_sum(area), area_serial.value());
+  }
 }
 
 TEST(DistributedEmbeddedGeometry, MatchesSerial3D) {
