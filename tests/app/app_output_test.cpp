@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include <vtkCell.h>
 #include <vtkNew.h>
@@ -181,6 +182,7 @@ TEST(AppOutput, TheEmbeddedWallsAreASurfaceParaViewReads) {
                             std::pow(u[0] * w[1] - u[1] * w[0], 2));
   }
   const double exact = 2.0 * (4.0 - M_PI * 0.25) + M_PI;
+  std::printf("walls.vtu: %lld triangles, area %.5f (exact %.5f)\n", static_cast<long long>(grid->GetNumberOfCells()), area, exact);
   EXPECT_NEAR(area, exact, 0.01 * exact);
 }
 
