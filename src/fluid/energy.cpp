@@ -132,14 +132,29 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   }, [&](double h) { return mu_constant * volume_of<D>(h) / (h * h); });
   e.dissipation = dissipation;
   e.boundary_power = boundary;
-  if (const WallFlux<D>* walls = ns.wall_flux()) {  // the walls' share: -sum_c u_c . mu W_c(u) h^D
+  if (const WallFlux<D>* walls = ns.wall_flux()) {
+    // The walls' flux mu q_c = mu grad u(x_w) . N / h^D (per unit volume, the wall's value
+    // included). A moving wall (u_w) works on the fluid at sum_c u_w . mu q_c h^D; the rest of
+    // u . mu q, -sum_c (u_c - u_w) . mu q_c h^D, is the walls' share of the dissipation.
     const double mu = ns.face_viscosity(0, 0, 0, t.level(0));
-    e.dissipation -= detail::leaf_integral<D>(t, [&](Index c) {
-                       if (!walls->cut(c)) return 0.0;
-                       double s = 0.0;
-                       for (int k = 0; k < D; ++k) s += u[k][c] * (walls->self(c) * u[k][c] + walls->others(c, u[k]));
-                       return mu * s;
-                     }).first;
+    const auto& wall_velocity = ns.wall_velocity();
+    const bool moving = !wall_velocity[0].empty();
+    auto wall_value = [&](int k, Index c) { return moving ? wall_velocity[k][static_cast<std::size_t>(c)] : 0.0; };
+    // Each cut cell's (u - u_w) . q and u_w . q.
+    auto parts = [&](Index c, bool worked) {
+      if (!walls->cut(c)) return 0.0;
+      double sum = 0.0;
+      for (int k = 0; k < D; ++k) {
+        const double uw = wall_value(k, c);
+        const double q = walls->self(c) * u[k][c] + walls->others(c, u[k]) + walls->wall(c) * uw;
+        sum += (worked ? uw : u[k][c] - uw) * q;
+      }
+      return mu * sum;
+    };
+    const double share = detail::leaf_integral<D>(t, [&](Index c) { return parts(c, false); }).first;
+    const double work = moving ? detail::leaf_integral<D>(t, [&](Index c) { return parts(c, true); }).first : 0.0;
+    e.dissipation -= share;
+    e.boundary_power += work;
   }
   if (ns.variable_properties()) {  // the transpose stress's share: -sum u . T h^D
     const std::span<const double> mu = t.values(ns.viscosity_field());

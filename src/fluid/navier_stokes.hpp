@@ -177,6 +177,10 @@ class NavierStokes {
   const EmbeddedGeometry<D>* embedded() const { return embedded_.get(); }
   // Their flux stencils (the viscous operator's wall terms, for mu = 1), or nullptr.
   const WallFlux<D>* wall_flux() const { return wall_flux_.get(); }
+  // Moving embedded walls (geometry::moving_wall): component d of the wall's velocity at the
+  // wall centroid of each cut active cell (per cell slot), the no-slip value the viscous
+  // solve imposes; empty when no wall moves.
+  const std::array<std::vector<double>, D>& wall_velocity() const { return wall_velocity_; }
 
   // The body force of the last step on faces, as the acceleration stage applied it (zero on
   // the faces of sides with a prescribed normal velocity, which carry the force).
@@ -289,6 +293,7 @@ class NavierStokes {
   std::unique_ptr<WallFlux<D>> wall_flux_;
   std::vector<double> pressure_faces_, pressure_pins_, viscous_faces_, viscous_cells_;
   double viscous_lambda_ = 0.0;  // the lambda viscous_cells_ was made for
+  std::array<std::vector<double>, D> wall_velocity_;  // wall_velocity()
   bool faces_current_ = false;                  // face_velocity_current()
   bool faces_carried_ = false;                  // face_velocity_carried()
   FaceField<D> kept_faces_;                     // adapt(): uf_ of the tree before

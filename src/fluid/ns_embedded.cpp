@@ -42,6 +42,18 @@ void NavierStokes<D>::rebuild_embedded() {
   embedded_cell_coefficients<D>(tree_, *embedded_, 0.0, pressure_pins_);
   embedded_face_coefficients<D>(tree_, *embedded_, mu_, viscous_faces_);
   viscous_cells_.clear();  // they depend on dt: made by the first viscous solve
+  for (auto& w : wall_velocity_) w.clear();
+  if (solid_->moves()) {
+    for (auto& w : wall_velocity_) w.assign(static_cast<std::size_t>(tree_.num_cells()), 0.0);
+    for (int l = 0; l <= tree_.depth(); ++l)
+      for (const Index c : embedded_->cut_cells(l)) {
+        const tree::Point<D> x = embedded_->wall_centroid(c);
+        Eigen::Vector3d p = Eigen::Vector3d::Zero();
+        for (int d = 0; d < D; ++d) p[d] = x[d];
+        const Eigen::Vector3d v = solid_->wall_velocity(p);
+        for (int d = 0; d < D; ++d) wall_velocity_[d][static_cast<std::size_t>(c)] = v[d];
+      }
+  }
   // Nothing flows where there is no fluid (a tree just refined has prolonged values there).
   const std::span<const double> volume = embedded_->volume();
   tree_.for_each_leaf([&](Index c) {
@@ -72,6 +84,15 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
     subtract_explicit_half(d, dt, theta,
                            EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>>(
                                tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls));
+  // A moving wall's no-slip value: its part of the wall flux, mu wall(c) u_wall, at the new
+  // time and (Crank-Nicolson) the old one, is a source: 1/theta of it, as the rest is divided.
+  if (!wall_velocity_[d].empty())
+    for (int l = 0; l <= tree_.depth(); ++l) {
+      const tree::Level<D>& lv = tree_.level(l);
+      for (const Index c : wall_flux_->cut_cells(l))
+        if (lv.is_leaf(c))
+          rhs_[c] -= mu_ * wall_flux_->wall(c) * wall_velocity_[d][static_cast<std::size_t>(c)] / theta;
+    }
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
       tree_, {mu_, viscous_faces_.data(), uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);
   MultigridOptions opt = with_krylov_on_growth(options_.viscous);

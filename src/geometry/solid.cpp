@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include <Eigen/Geometry>
 #include <fmt/format.h>
 
 namespace capsflow::geometry {
@@ -136,16 +137,45 @@ class Combination final : public Solid {
     }
     return d;
   }
+  Eigen::Vector3d wall_velocity(const Eigen::Vector3d& x) const override {
+    const Solid* nearest = parts_.front().get();
+    double distance = std::abs(nearest->signed_distance(x));
+    for (std::size_t i = 1; i < parts_.size(); ++i)
+      if (const double e = std::abs(parts_[i]->signed_distance(x)); e < distance) {
+        distance = e;
+        nearest = parts_[i].get();
+      }
+    return nearest->wall_velocity(x);
+  }
+  bool moves() const override {
+    return std::any_of(parts_.begin(), parts_.end(), [](const SolidPtr& p) { return p->moves(); });
+  }
 
  private:
   std::vector<SolidPtr> parts_;
   bool union_;
 };
 
+class MovingWall final : public Solid {
+ public:
+  MovingWall(SolidPtr s, const WallMotion& m) : s_(std::move(s)), m_(m) {}
+  double signed_distance(const Eigen::Vector3d& x) const override { return s_->signed_distance(x); }
+  Eigen::Vector3d wall_velocity(const Eigen::Vector3d& x) const override {
+    return m_.velocity + m_.angular_velocity.cross(x - m_.centre);
+  }
+  bool moves() const override { return true; }
+
+ private:
+  SolidPtr s_;
+  WallMotion m_;
+};
+
 class Complement final : public Solid {
  public:
   explicit Complement(SolidPtr s) : s_(std::move(s)) {}
   double signed_distance(const Eigen::Vector3d& x) const override { return -s_->signed_distance(x); }
+  Eigen::Vector3d wall_velocity(const Eigen::Vector3d& x) const override { return s_->wall_velocity(x); }
+  bool moves() const override { return s_->moves(); }
 
  private:
   SolidPtr s_;
@@ -213,6 +243,14 @@ SolidPtr subtract(SolidPtr from, std::vector<SolidPtr> removed) {
   std::vector<SolidPtr> parts{std::move(from)};
   for (SolidPtr& r : removed) parts.push_back(complement(std::move(r)));
   return intersect(std::move(parts));
+}
+
+SolidPtr moving_wall(SolidPtr s, const WallMotion& m) {
+  check_parts({s}, "a moving wall");
+  check_finite(m.velocity, "a wall velocity");
+  check_finite(m.angular_velocity, "an angular velocity");
+  check_finite(m.centre, "a rotation centre");
+  return std::make_shared<MovingWall>(std::move(s), m);
 }
 
 SolidPtr complement(SolidPtr s) {

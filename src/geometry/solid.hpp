@@ -19,6 +19,10 @@ class Solid {
   virtual ~Solid() = default;
   // < 0 inside the solid, > 0 outside, 0 on its surface.
   [[nodiscard]] virtual double signed_distance(const Eigen::Vector3d& x) const = 0;
+  // The velocity of the wall at a point x on it (no slip: the fluid's there): zero unless the
+  // wall slides along itself (moving_wall below).
+  [[nodiscard]] virtual Eigen::Vector3d wall_velocity(const Eigen::Vector3d&) const { return Eigen::Vector3d::Zero(); }
+  [[nodiscard]] virtual bool moves() const { return false; }
 };
 
 using SolidPtr = std::shared_ptr<const Solid>;
@@ -54,6 +58,19 @@ struct Tube {
   double half_length = 1.0;
 };
 [[nodiscard]] SolidPtr tube_wall(const Tube& t);
+
+// A solid whose wall slides along itself while the solid stays in place (a rotating
+// cylinder or sphere, a cylinder sliding along its axis): wall velocity
+//   v(x) = velocity + angular_velocity x (x - centre).
+// The motion must be tangential to the wall everywhere (the caller's to check: the flow keeps
+// no flux through walls). Set operations take the wall velocity of the part whose wall is
+// nearest the point.
+struct WallMotion {
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+};
+[[nodiscard]] SolidPtr moving_wall(SolidPtr s, const WallMotion& m);
 
 // Set operations on solids (each at least one part).
 [[nodiscard]] SolidPtr unite(std::vector<SolidPtr> parts);

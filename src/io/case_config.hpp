@@ -145,6 +145,10 @@ struct SolidConfig {
   std::string file;                            // stl: the surface (absolute once parsed)
   double scale = 1.0;                          // stl: x -> scale x + translate
   std::array<double, 3> translate{};           // stl
+  // A wall sliding along itself (the solid stays in place): sphere, cylinder and tube turn
+  // about their centre and axis; an infinite cylinder may also slide along its axis.
+  std::array<double, 3> angular_velocity{};    // sphere, cylinder, tube (parallel to the axis)
+  double axial_velocity = 0.0;                 // infinite cylinder
   bool operator==(const SolidConfig&) const = default;
 };
 

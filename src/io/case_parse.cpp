@@ -165,7 +165,8 @@ SolidConfig parse_solid(TableReader r, int dim) {
                                   {"axis", {cylinder, tube}}, {"half_length", {cylinder, tube}},
                                   {"rounded_ends", {cylinder}}, {"far_radius", {tube}},
                                   {"throat_radius", {tube}}, {"file", {stl}},
-                                  {"scale", {stl}},          {"translate", {stl}}};
+                                  {"scale", {stl}},          {"translate", {stl}},
+                                  {"angular_velocity", {sphere, cylinder, tube}}, {"axial_velocity", {cylinder}}};
   for (const Owned& o : kOwners) {
     if (!r.has(o.key) || std::ranges::find(o.shapes, s.shape) != o.shapes.end()) continue;
     std::string names;
@@ -209,6 +210,8 @@ SolidConfig parse_solid(TableReader r, int dim) {
       break;
     }
   }
+  if (s.shape == sphere || s.shape == cylinder || s.shape == tube) r.read("angular_velocity", s.angular_velocity, 3);
+  if (s.shape == cylinder) r.read("axial_velocity", s.axial_velocity);
   r.finish();
   return s;
 }

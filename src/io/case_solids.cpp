@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include <Eigen/Geometry>
+
 #include "geometry/triangle_surface.hpp"
 #include "io/case_names.hpp"
 #include "io/case_source.hpp"
@@ -36,6 +38,23 @@ void check_solid(const CaseConfig& c, std::size_t i, const CaseSource& source) {
     for (int d = 0; d < dim; ++d) length += s.axis[d] * s.axis[d];
     if (!(length > 0.0)) source.fail(key + ".axis", "must not be zero");
   };
+  // A moving wall slides along itself: a turn about the shape's own axis (any axis through a
+  // sphere's centre), a slide along an infinite cylinder's axis; in 2D, a turn in the plane.
+  for (int d = 0; d < 3; ++d) finite(fmt::format("{}.angular_velocity[{}]", key, d), s.angular_velocity[d]);
+  finite(key + ".axial_velocity", s.axial_velocity);
+  const std::string omega = toml_vector(s.angular_velocity, 3);
+  if (dim == 2 && (s.angular_velocity[0] != 0.0 || s.angular_velocity[1] != 0.0))
+    source.fail(key + ".angular_velocity", omega, "a 2D case turns in its plane: only the z component may be nonzero");
+  if (s.shape == SolidShape::cylinder || s.shape == SolidShape::tube) {
+    const Eigen::Vector3d w(s.angular_velocity[0], s.angular_velocity[1], s.angular_velocity[2]);
+    const Eigen::Vector3d a(s.axis[0], s.axis[1], dim == 3 ? s.axis[2] : 0.0);
+    if (a.norm() > 0.0 && w.cross(a.normalized()).norm() > 1e-12 * w.norm())
+      source.fail(key + ".angular_velocity", omega,
+                  "must be parallel to the axis (the wall turns about it, sliding along itself)");
+  }
+  if (s.axial_velocity != 0.0 && s.half_length != 0.0)
+    source.fail(key + ".axial_velocity", toml_number(s.axial_velocity),
+                "only an infinite cylinder (half_length = 0) slides along itself");
   switch (s.shape) {
     case SolidShape::box:
       vector("lo", s.lo);
@@ -127,6 +146,15 @@ geometry::SolidPtr make_solid(const CaseConfig& config, std::string_view source)
     } catch (const std::exception& e) {  // an STL file's CaseError (it names the file), a refused shape
       const std::string key = fmt::format("solid[{}]{}", i, s.shape == SolidShape::stl ? ".file" : "");
       throw CaseError(detail::one_line(fmt::format("{}: {}: {}", source, key, e.what())));
+    }
+    const Eigen::Vector3d omega = point(s.angular_velocity);
+    if (omega.norm() > 0.0 || s.axial_velocity != 0.0) {
+      Eigen::Vector3d axis = point(s.axis);
+      if (config.dimension == 2) axis[2] = 0.0;
+      const Eigen::Vector3d slide = s.axial_velocity != 0.0 ? Eigen::Vector3d(s.axial_velocity * axis.normalized())
+                                                            : Eigen::Vector3d::Zero();
+      shape = geometry::moving_wall(std::move(shape),
+                                    {.velocity = slide, .angular_velocity = omega, .centre = point(s.centre)});
     }
     if (s.fill == SolidFill::outside) shape = geometry::complement(std::move(shape));
     if (!solid) {

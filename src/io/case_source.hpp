@@ -5,6 +5,7 @@
 // command-line override set, so a user does not search the file for them.
 #include <fmt/format.h>
 
+#include <array>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -32,6 +33,13 @@ inline std::string toml_number(double v) {
   std::string s = fmt::format("{}", v);
   if (s.find_first_of(".en") == std::string::npos) s += ".0";  // "n": inf, nan
   return s;
+}
+
+// The first n components of v as a TOML array of numbers.
+inline std::string toml_vector(const std::array<double, 3>& v, int n) {
+  std::string s = "[";
+  for (int i = 0; i < n; ++i) s += (i ? ", " : "") + toml_number(v[static_cast<std::size_t>(i)]);
+  return s + "]";
 }
 
 inline std::string toml_string(std::string_view s) {

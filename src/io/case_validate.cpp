@@ -15,12 +15,6 @@ namespace detail {
 
 namespace {
 
-std::string vector_repr(const std::array<double, 3>& v, int n) {
-  std::string s = "[";
-  for (int i = 0; i < n; ++i) s += (i ? ", " : "") + toml_number(v[i]);
-  return s + "]";
-}
-
 class Checker {
  public:
   explicit Checker(const CaseSource& source) : source_(source) {}
@@ -95,7 +89,7 @@ void check_boundary(const CaseConfig& c, const Checker& ck) {
     if (b.type == BoundaryType::moving_wall) {
       for (int i = 0; i < dim; ++i) ck.finite(fmt::format("{}.velocity[{}]", key, i), b.velocity[i]);
       if (b.velocity[d] != 0.0)
-        ck.fail(key + ".velocity", vector_repr(b.velocity, dim),
+        ck.fail(key + ".velocity", toml_vector(b.velocity, dim),
                 fmt::format("the normal component ({}) must be 0: a wall slides along itself",
                             kAxisNames[d]));
     }
@@ -230,7 +224,7 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
     const double lo = c.domain.origin[d];
     const double hi = lo + c.domain.roots[d] * c.domain.root_size;
     if (cap.centre[d] - semi < lo || cap.centre[d] + semi > hi)
-      ck.fail(key + ".centre", vector_repr(cap.centre, 3),
+      ck.fail(key + ".centre", toml_vector(cap.centre, 3),
               fmt::format("the capsule does not fit inside the domain: along {} its centre +- {} "
                           "(its initial semi-axis) leaves [{}, {}]",
                           kAxisNames[d], semi, lo, hi));
@@ -243,7 +237,7 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
     const double hi = lo + c.domain.roots[d] * c.domain.root_size;
     const double gap = std::min(cap.centre[d] - semi - lo, hi - cap.centre[d] - semi);
     if (gap < reach)
-      ck.fail(key + ".centre", vector_repr(cap.centre, 3),
+      ck.fail(key + ".centre", toml_vector(cap.centre, 3),
               fmt::format("the capsule is {:.4g} from a side along {}, within its kernels' reach ({:.4g}: "
                           "(support - 1)/2 cells of the max level, {:.4g}); its stencils would leave the domain",
                           gap, kAxisNames[d], reach,
@@ -262,7 +256,7 @@ void check_capsule_overlaps(const CaseConfig& c, const Checker& ck) {
       for (int d = 0; d < 3; ++d) dist2 += (a.centre[d] - b.centre[d]) * (a.centre[d] - b.centre[d]);
       const double dist = std::sqrt(dist2), reach = bounding_radius(a) + bounding_radius(b);
       if (dist < reach)
-        ck.fail(fmt::format("capsule[{}].centre", j), vector_repr(b.centre, 3),
+        ck.fail(fmt::format("capsule[{}].centre", j), toml_vector(b.centre, 3),
                 fmt::format("overlaps capsule[{}]: the centres are {:.4g} apart, less than the sum of the "
                             "capsules' largest initial semi-axes ({:.4g})",
                             i, dist, reach));

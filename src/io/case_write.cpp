@@ -119,6 +119,7 @@ std::string to_toml(const CaseConfig& c) {
       case SolidShape::sphere:
         line("centre", array_repr(s.centre, n));
         line("radius", toml_number(s.radius));
+        line("angular_velocity", array_repr(s.angular_velocity, 3));
         break;
       case SolidShape::cylinder:
         line("centre", array_repr(s.centre, n));
@@ -126,6 +127,8 @@ std::string to_toml(const CaseConfig& c) {
         line("axis", array_repr(s.axis, n));
         line("half_length", toml_number(s.half_length));
         line("rounded_ends", b(s.rounded_ends));
+        line("angular_velocity", array_repr(s.angular_velocity, 3));
+        line("axial_velocity", toml_number(s.axial_velocity));
         break;
       case SolidShape::tube:
         line("centre", array_repr(s.centre, n));
@@ -133,6 +136,7 @@ std::string to_toml(const CaseConfig& c) {
         line("throat_radius", toml_number(s.throat_radius));
         line("half_length", toml_number(s.half_length));
         line("axis", array_repr(s.axis, n));
+        line("angular_velocity", array_repr(s.angular_velocity, 3));
         break;
       case SolidShape::stl:
         line("file", toml_string(s.file));

@@ -189,6 +189,52 @@ TEST(CaseSolids, BadTablesAreOneLineNamingTheKey) {
               HasSubstr("solid[0].shape = \"stl\": STL surfaces need dimension = 3"));
 }
 
+// Moving walls: a sphere turning about its centre, a cylinder turning about and sliding along
+// its axis; the wall velocity at a point of the wall, written back; motions that are not
+// along the wall refused naming the key.
+TEST(CaseSolids, WallsSlidingAlongThemselves) {
+  const std::string text = std::string(kBase) + R"(
+[[solid]]
+shape = "sphere"
+centre = [2.0, 0.5, 0.5]
+radius = 0.2
+angular_velocity = [0.0, 0.0, 3.0]
+[[solid]]
+shape = "cylinder"
+centre = [0.0, 0.5, 0.5]
+axis = [1.0, 0.0, 0.0]
+radius = 0.45
+fill = "outside"
+angular_velocity = [-2.0, 0.0, 0.0]
+axial_velocity = 0.5
+)";
+  const CaseConfig c = parse_case_text(text, "case.toml");
+  EXPECT_EQ(parse_case_text(to_toml(c), "case.toml"), c);
+  const geometry::SolidPtr s = make_solid(c, "case.toml");
+  EXPECT_TRUE(s->moves());
+  // On the sphere's wall at (2.2, 0.5, 0.5): omega x r = 3 e_z x 0.2 e_x = 0.6 e_y.
+  EXPECT_LT((s->wall_velocity({2.2, 0.5, 0.5}) - Eigen::Vector3d(0.0, 0.6, 0.0)).norm(), 1e-12);
+  // On the tube's wall at (1, 0.95, 0.5): 0.5 e_x + (-2 e_x) x (0.45 e_y) = (0.5, 0, -0.9).
+  EXPECT_LT((s->wall_velocity({1.0, 0.95, 0.5}) - Eigen::Vector3d(0.5, 0.0, -0.9)).norm(), 1e-12);
+  EXPECT_FALSE(make_solid(parse_case_text(std::string(kBase) + "[[solid]]\nshape = \"sphere\"\ncentre = [2, 0.5, 0.5]\n"
+                                                                  "radius = 0.2\n", "c"), "c")->moves());
+
+  auto with = [](std::string_view table) { return std::string(kBase) + "[[solid]]\n" + std::string(table); };
+  EXPECT_THAT(error_of(with("shape = \"cylinder\"\ncentre = [1, 0.5, 0.5]\nradius = 0.1\nangular_velocity = [0, 1, 0]\n")),
+              HasSubstr("solid[0].angular_velocity = [0.0, 1.0, 0.0]: must be parallel to the axis"));
+  EXPECT_THAT(error_of(with("shape = \"cylinder\"\ncentre = [1, 0.5, 0.5]\nradius = 0.1\nhalf_length = 0.5\n"
+                            "axial_velocity = 1\n")),
+              HasSubstr("solid[0].axial_velocity = 1.0: only an infinite cylinder"));
+  EXPECT_THAT(error_of(with("shape = \"box\"\nlo = [0, 0, 0]\nhi = [1, 1, 1]\nangular_velocity = [0, 0, 1]\n")),
+              HasSubstr("solid[0].angular_velocity = [0, 0, 1]: only used with shape"));
+  EXPECT_THAT(error_of(with("shape = \"sphere\"\ncentre = [1, 0.5, 0.5]\nradius = 0.1\naxial_velocity = 1\n")),
+              HasSubstr("solid[0].axial_velocity = 1: only used with shape = \"cylinder\""));
+  EXPECT_THAT(error_of("dimension = 2\n[domain]\nroots = [1, 1]\n[fluid.boundary]\nx_lo = { type = \"wall\" }\n"
+                       "x_hi = { type = \"wall\" }\ny_lo = { type = \"wall\" }\ny_hi = { type = \"wall\" }\n"
+                       "[[solid]]\nshape = \"sphere\"\ncentre = [0.5, 0.5]\nradius = 0.1\nangular_velocity = [1, 0, 0]\n"),
+              HasSubstr("solid[0].angular_velocity = [1.0, 0.0, 0.0]: a 2D case turns in its plane"));
+}
+
 TEST(CaseSolids, BadStlFilesNameTheKeyAndTheFile) {
   ScratchDir dir("case_solids_bad_stl");
   auto message = [&](const std::string& file) {
