@@ -560,12 +560,8 @@ void run_case(const RunRequest& req) {
       throw io::CaseError(fmt::format("{}: capsule[{}].staggered = false on {} MPI ranks: the cell-centred coupling runs on "
                                       "one rank only (run without mpirun, or with the default staggered coupling)",
                                       req.case_file.string(), k, comm.size()));
-  // Embedded walls run in Stokes flow without capsules for now (docs/walls.md): the other
-  // combinations are refused rather than run as if the solids were not there.
-  if (!c.solids.empty() && !c.fluid.stokes)
-    throw io::CaseError(fmt::format("{}: solid[0]: embedded walls run with fluid.stokes = true only for now (advection "
-                                    "past embedded walls is not implemented yet; docs/walls.md)",
-                                    req.case_file.string()));
+  // Embedded walls with carried faces are refused rather than run as if the solids were not
+  // there (docs/walls.md).
   if (!c.solids.empty() && c.fluid.carry_faces)
     throw io::CaseError(fmt::format("{}: solid[0]: embedded walls with fluid.carry_faces = true are not implemented yet "
                                     "(docs/walls.md)",

@@ -169,9 +169,9 @@ class NavierStokes {
   // Embedded walls (issue "Walls of any shape"): the solid is no-slip fluid-free space. The
   // viscous and pressure operators take the fluid fractions and the walls' fluxes
   // (multigrid/wall_flux.hpp), the divergence is that of each cell's fluid part, faces
-  // without fluid carry no velocity and cells without fluid none. Rebuilt by every adapt().
-  // Stokes only for now, with constant properties and without carry_faces
-  // (std::invalid_argument otherwise). Collective on N ranks.
+  // without fluid carry no velocity and cells without fluid none; the advection carries the
+  // open parts' fluxes (ns_advection.cpp). Rebuilt by every adapt(). Constant properties and
+  // no carry_faces for now (std::invalid_argument otherwise). Collective on N ranks.
   void set_solid(geometry::SolidPtr solid);
   // The embedded walls, or nullptr.
   const EmbeddedGeometry<D>* embedded() const { return embedded_.get(); }
@@ -255,6 +255,10 @@ class NavierStokes {
   MultigridStats embedded_viscous_solve(int d, double dt, double theta);
   MultigridStats embedded_projection(FaceField<D>& uf, std::span<double> p, double dt, const MultigridOptions& opt);
   void embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g);
+  // The advection's source g + (mu/rho) lap u_d with embedded walls, on the owned leaves.
+  void embedded_viscous_source(int d, std::span<const double> u, std::span<const double> g, std::vector<double>& src);
+  // The least fluid fraction the advection divides a cell's balance by (ns_advection.cpp).
+  static constexpr double kSmallCell = 0.5;
   template <class Body>
   void with_inverse_density(Body&& body) const;
 

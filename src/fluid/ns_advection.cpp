@@ -81,7 +81,9 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   for (int d = 0; d < D; ++d) {
     std::vector<double>& src = source_[d];
     const std::span<const double> gd = tree_.values(g_[d]);
-    if (properties_) {
+    if (embedded_) {
+      embedded_viscous_source(d, u[d], gd, src);
+    } else if (properties_) {
       const EllipticOperator<D, FaceArray<D>> viscous(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]);
       viscous.apply_leaves(u[d], src);
       const std::span<const double> rho = tree_.values(rho_field_);
@@ -116,7 +118,13 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   restrict_faces<D>(tree_, uf_);
   stats.prediction_cycles += project(uf_, pf_, 0.5 * dt, options_.projection, stats);
 
-  // 2. Conservative advection of each component by the projected face velocity.
+  // 2. Conservative advection of each component by the projected face velocity. With
+  // embedded walls each face carries its open part's flux and each cell's fluid part takes
+  // the balance, divided by at least half a cell (kSmallCell): the fluid parts smaller than
+  // that change more slowly than their momentum balance asks (not conservative there), so
+  // that small cut cells do not limit the time step.
+  const FaceField<D>* open = open_faces();
+  const std::span<const double> volume = embedded_ ? embedded_->volume() : std::span<const double>{};
   FaceField<D>& flux = scratch_faces_;
   for (int c = 0; c < D; ++c) {
     slopes<D>(tree_, u[c], options_.limited_slopes, sl);
@@ -125,7 +133,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       const double f = bcg_face<D>(lv, d, lo, hi, h, un, u[c], sl, g[c], 0.5 * dt, dt, [&](int e, Index i) {
         return 0.5 * (uf_[e][i] + uf_[e][lv.face_row(i)[2 * e + 1]]);
       });
-      flux[d][hi] = f * uf_[d][hi];
+      flux[d][hi] = f * uf_[d][hi] * (open ? (*open)[d][hi] : 1.0);
     });
     restrict_faces<D>(tree_, flux);
     std::span<double> uc = tree_.values(u_[c]);
@@ -134,7 +142,12 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
       const Index* row = tree_.level(l).face_row(cell);
       double div = 0.0;
       for (int d = 0; d < D; ++d) div += flux[d][row[2 * d + 1]] - flux[d][cell];
-      uc[cell] -= dt * div / h;
+      if (!embedded_) {
+        uc[cell] -= dt * div / h;
+        return;
+      }
+      const double fluid = volume[static_cast<std::size_t>(cell)];
+      if (fluid > 0.0) uc[cell] -= dt * div / (h * std::max(fluid, kSmallCell));
     });
   }
   // Distributed: the ghosts' new values from their owners (a component's flux reads no
@@ -144,6 +157,34 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   tree_.update_ghosts(advected);
 }
 
+template <int D>
+void NavierStokes<D>::embedded_viscous_source(int d, std::span<const double> u, std::span<const double> g,
+                                             std::vector<double>& src) {
+  // (mu/rho) times the embedded viscous operator (fractions, the walls' flux with a moving
+  // wall's value), per unit of each cell's fluid part (at least kSmallCell of the cell).
+  const WallTerms<D> walls{wall_flux_.get(), mu_};
+  const std::uint8_t* uniform = embedded_->uniform().data();
+  const EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>> viscous(
+      tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls);
+  viscous.apply_leaves(u, src);
+  const std::span<const double> volume = embedded_->volume();
+  const bool moving = !wall_velocity_[d].empty();
+  tree_.for_each_owned_leaf([&](Index c) {
+    const double fluid = volume[static_cast<std::size_t>(c)];
+    if (!(fluid > 0.0)) {
+      src[c] = 0.0;
+      return;
+    }
+    double s = src[c];
+    if (moving && wall_flux_->cut(c)) s += mu_ * wall_flux_->wall(c) * wall_velocity_[d][static_cast<std::size_t>(c)];
+    src[c] = g[c] + s / (options_.density * std::max(fluid, kSmallCell));
+  });
+}
+
+template void NavierStokes<2>::embedded_viscous_source(int, std::span<const double>, std::span<const double>,
+                                                       std::vector<double>&);
+template void NavierStokes<3>::embedded_viscous_source(int, std::span<const double>, std::span<const double>,
+                                                       std::vector<double>&);
 template void NavierStokes<2>::prediction_and_advection(double, StepStats&);
 template void NavierStokes<3>::prediction_and_advection(double, StepStats&);
 

@@ -27,7 +27,6 @@ template <int D>
 void NavierStokes<D>::set_solid(geometry::SolidPtr solid) {
   if (!solid) throw std::invalid_argument("NavierStokes::set_solid: no solid");
   if (properties_) throw std::invalid_argument("embedded walls with variable density or viscosity: not implemented yet");
-  if (!options_.stokes) throw std::invalid_argument("embedded walls with advection (Navier-Stokes): not implemented yet; set stokes");
   // The carried faces miss the walls (measured: half the drag of a cylinder array).
   if (options_.carry_faces) throw std::invalid_argument("embedded walls with carried faces (carry_faces): not implemented yet");
   solid_ = std::move(solid);

@@ -64,13 +64,13 @@ TEST(AppErrors, InnerFluidRatiosRefused) {
                  "fluid.density_ratio = 0.5: must be 1: inner fluids of another density");
 }
 
-// Solids are read and checked; embedded walls run in Stokes flow without capsules for now,
-// and the other combinations are refused (they must not run as if the solid were not there).
+// Solids are read and checked; embedded walls with carried faces are refused (they must not
+// run as if the solid were not there).
 TEST(AppErrors, SolidsAreCheckedAndRefusedWhereNotSupportedYet) {
   const std::string circle = "[[solid]]\nshape = \"sphere\"\ncentre = [0.5, 0.5]\nradius = ";
   expect_refused(kCavity + circle + "-0.2\n", "", "solid[0].radius = -0.2: must be > 0");
-  expect_refused(kCavity + circle + "0.2\n", "--set fluid.stokes=false",
-                 "solid[0]: embedded walls run with fluid.stokes = true only for now");
+  expect_refused(kCavity + circle + "0.2\n", "--set fluid.carry_faces=true",
+                 "solid[0]: embedded walls with fluid.carry_faces = true are not implemented yet");
 }
 
 // A capsule must start beyond its kernels' reach of every embedded wall (contact is not

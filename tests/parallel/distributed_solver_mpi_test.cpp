@@ -486,6 +486,13 @@ TEST(DistributedFlow, CavityAroundATurningCylinderStokesMatchesSerial2D) {
                 geometry::moving_wall(geometry::sphere(centre, 0.21), {.angular_velocity = {0.0, 0.0, -3.0}, .centre = centre}));
 }
 
+// Navier-Stokes past the cylinder (advection of the open parts' fluxes), adapted every 4 steps.
+TEST(DistributedFlow, CavityAroundACylinderNavierStokesMatchesSerial2D) {
+  check_flow<2>({.roots = {1, 1}, .max_level = 7}, [](const Box<2>& b) { return b.hi[1] > 0.8 ? 6 : 5; },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<2>()}, 12, 4, 4,
+                geometry::sphere({0.47, 0.52, 0.0}, 0.21));
+}
+
 TEST(DistributedFlow, CavityAroundABallStokesMatchesSerial3D) {
   check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>&) { return 4; },
                 {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<3>()}, 5, 0, 0, geometry::sphere({0.48, 0.51, 0.46}, 0.23));
