@@ -217,9 +217,15 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       // z = B r (a cycle writes res on the parents only: the leaves stay for the step).
       vcycle(op, res, da, scratch, opt, {}, restricted);
       if (singular) detail::remove_mean(op, da);
-      double beta = 0.0;
-      if (krylov_steps++ > 0) beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
-      t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });
+      // The first direction is z itself: p's old entries are not read (0 times a stale entry
+      // is NaN when that entry is not finite: measured on 2 ranks in the checked build, where
+      // krylov_on_growth first switched mid-solve).
+      if (krylov_steps++ > 0) {
+        const double beta = -detail::leaf_dot<D>(t, da, q) / pq_old;
+        t.for_each_leaf([&](tree::Index c) { p[c] = da[c] + beta * p[c]; });
+      } else {
+        t.for_each_leaf([&](tree::Index c) { p[c] = da[c]; });
+      }
       t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic);
       op.apply_leaves(p, q);  // L0 p: p's boundary cells hold homogeneous values
       pq_old = detail::leaf_dot<D>(t, p, q);
