@@ -137,17 +137,14 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
     // included). A moving wall (u_w) works on the fluid at sum_c u_w . mu q_c h^D; the rest of
     // u . mu q, -sum_c (u_c - u_w) . mu q_c h^D, is the walls' share of the dissipation.
     const double mu = ns.face_viscosity(0, 0, 0, t.level(0));
-    const auto& wall_velocity = ns.wall_velocity();
-    const bool moving = !wall_velocity[0].empty();
-    auto wall_value = [&](int k, Index c) { return moving ? wall_velocity[k][static_cast<std::size_t>(c)] : 0.0; };
+    const bool moving = !ns.wall_velocity()[0].empty();
     // Each cut cell's (u - u_w) . q and u_w . q.
     auto parts = [&](Index c, bool worked) {
       if (!walls->cut(c)) return 0.0;
       double sum = 0.0;
       for (int k = 0; k < D; ++k) {
-        const double uw = wall_value(k, c);
-        const double q = walls->self(c) * u[k][c] + walls->others(c, u[k]) + walls->wall(c) * uw;
-        sum += (worked ? uw : u[k][c] - uw) * q;
+        const double uw = ns.wall_velocity(k, c);
+        sum += (worked ? uw : u[k][c] - uw) * walls->flux(c, u[k], uw);
       }
       return mu * sum;
     };

@@ -181,6 +181,10 @@ class NavierStokes {
   // wall centroid of each cut active cell (per cell slot), the no-slip value the viscous
   // solve imposes; empty when no wall moves.
   const std::array<std::vector<double>, D>& wall_velocity() const { return wall_velocity_; }
+  // Component d of it at cut cell c (0 when no wall moves).
+  double wall_velocity(int d, Index c) const {
+    return wall_velocity_[d].empty() ? 0.0 : wall_velocity_[d][static_cast<std::size_t>(c)];
+  }
 
   // The body force of the last step on faces, as the acceleration stage applied it (zero on
   // the faces of sides with a prescribed normal velocity, which carry the force).

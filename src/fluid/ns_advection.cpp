@@ -168,7 +168,6 @@ void NavierStokes<D>::embedded_viscous_source(int d, std::span<const double> u, 
       tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls);
   viscous.apply_leaves(u, src);
   const std::span<const double> volume = embedded_->volume();
-  const bool moving = !wall_velocity_[d].empty();
   tree_.for_each_owned_leaf([&](Index c) {
     const double fluid = volume[static_cast<std::size_t>(c)];
     if (!(fluid > 0.0)) {
@@ -176,7 +175,7 @@ void NavierStokes<D>::embedded_viscous_source(int d, std::span<const double> u, 
       return;
     }
     double s = src[c];
-    if (moving && wall_flux_->cut(c)) s += mu_ * wall_flux_->wall(c) * wall_velocity_[d][static_cast<std::size_t>(c)];
+    if (wall_flux_->cut(c)) s += mu_ * wall_flux_->wall(c) * wall_velocity(d, c);
     src[c] = g[c] + s / (options_.density * std::max(fluid, kSmallCell));
   });
 }

@@ -19,17 +19,14 @@ std::array<double, D> wall_force(NavierStokes<D>& ns) {
   t.sync(std::span<const tree::FieldId>(ids));
   const std::span<const double> p = t.values(ns.pressure());
   const double mu = ns.face_viscosity(0, 0, 0, t.level(0));
-  const auto& wall_velocity = ns.wall_velocity();
   for (int k = 0; k < D; ++k) {
     const std::span<const double> u = t.values(ids[k]);
-    const bool moving = !wall_velocity[k].empty();
     // Per unit volume (leaf_integral multiplies by the leaf's h^D).
     force[k] = detail::leaf_integral<D>(t, [&](Index c) {
                  if (!walls->cut(c)) return 0.0;
                  const double volume = std::pow(t.cell_size(t.level_of(c)), D);
-                 const double uw = moving ? wall_velocity[k][static_cast<std::size_t>(c)] : 0.0;
-                 const double q = walls->self(c) * u[c] + walls->others(c, u) + walls->wall(c) * uw;
-                 return p[c] * g->wall_normal_area(c)[static_cast<std::size_t>(k)] / volume - mu * q;
+                 return p[c] * g->wall_normal_area(c)[static_cast<std::size_t>(k)] / volume -
+                        mu * walls->flux(c, u, ns.wall_velocity(k, c));
                }).first;
   }
   return force;

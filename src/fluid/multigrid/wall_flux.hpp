@@ -48,6 +48,10 @@ class WallFlux {
     return sum;
   }
   double wall(Index c) const { return wall_[static_cast<std::size_t>(row_[static_cast<std::size_t>(c)])]; }
+  // The whole of it with the wall's value a_wall: grad a(x_w) . N / h^D.
+  double flux(Index c, std::span<const double> a, double a_wall) const {
+    return self(c) * a[c] + others(c, a) + wall(c) * a_wall;
+  }
   // The cut cells of level l (every active one with a wall).
   std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
   // The active cells of level l with fluid within the 3^D block of a cut cell, of one
