@@ -48,9 +48,6 @@ inline constexpr Index kRelaxParallelMin = 32768;
 // interleaved runs, 1 thread): 128^3 relaxation -12%, residual -11%; 64^3 -9%, 0%.
 inline constexpr Index kPrefetchGroups = 16;
 
-// Red-black passes over the cells near embedded walls before each sweep (WallFlux::band):
-// the walls' stencils reach past the face neighbours and smooth slowly otherwise.
-inline constexpr int kWallBandPasses = 2;
 // The cut cells' and the band's loops go parallel from this many cells: each costs a wall
 // stencil (up to 27 weights) or a full update, several times a level's plain cell.
 inline constexpr Index kWallListParallelMin = 512;
@@ -162,7 +159,7 @@ class EllipticOperator {
         // every cell, with no exchange). A half-sweep changes its colour only: the ghosts
         // of the other one already hold their owners' values, and only half are sent.
         const bool exchange = !tree_.replicated_level(l);
-        relax_wall_band(l, lv, diag, da, res, scratch, exchange);
+        relax_wall_band(l, lv, diag, da, res, scratch, exchange, opt.wall_band_passes);
         lag_wall_terms(l, da, scratch);
         relax_colour<0>(l, lv, diag, da, res, {});
         if (exchange) tree_.update_ghosts(l, da, 0);
@@ -228,11 +225,12 @@ class EllipticOperator {
     }
   }
 
-  // Extra red-black passes over the cells near the walls (WallFlux::band).
+  // Extra red-black passes over the cells near the walls (WallFlux::band;
+  // MultigridOptions::wall_band_passes).
   void relax_wall_band(int l, const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
-                       std::span<double> scratch, bool exchange) const {
+                       std::span<double> scratch, bool exchange, int passes) const {
     if constexpr (Walls::kActive) {
-      for (int pass = 0; pass < kWallBandPasses; ++pass)
+      for (int pass = 0; pass < passes; ++pass)
         for (int colour = 0; colour < 2; ++colour) {
           lag_wall_terms(l, da, scratch);
           // A colour's cells read the other colour only (and the lagged sums): in any order.

@@ -35,6 +35,12 @@ struct MultigridOptions {
   // misrepresent them somewhere (embedded walls whose cut cells crowd a coarse cell), at no
   // cost where the cycles converge.
   bool krylov_on_growth = false;
+  // Red-black passes over the cells near embedded walls before each sweep
+  // (WallFlux::band): the walls' stencils reach past the face neighbours and smooth slowly
+  // where nothing else holds the cells (a Poisson operator: pipe, 256^2, 27 cycles without
+  // them, 13 with). A Helmholtz operator's cell term holds them: the viscous solves take 0
+  // (docs/walls.md, "Cost").
+  int wall_band_passes = 2;
 };
 
 struct [[nodiscard]] MultigridStats {
