@@ -36,7 +36,7 @@ void NavierStokes<D>::set_solid(geometry::SolidPtr solid) {
 template <int D>
 void NavierStokes<D>::rebuild_embedded() {
   embedded_ = std::make_unique<EmbeddedGeometry<D>>(tree_, solid_);
-  wall_flux_ = std::make_unique<WallFlux<D>>(tree_, *embedded_);
+  wall_flux_ = std::make_unique<WallFlux<D>>(tree_, *embedded_, WallFlux<D>::Band::none);  // no band passes: embedded_viscous_solve
   embedded_face_coefficients<D>(tree_, *embedded_, 1.0 / options_.density, pressure_faces_);
   embedded_cell_coefficients<D>(tree_, *embedded_, 0.0, pressure_pins_);
   embedded_face_coefficients<D>(tree_, *embedded_, mu_, viscous_faces_);

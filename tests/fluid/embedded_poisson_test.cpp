@@ -5,9 +5,12 @@
 // that stay bounded as the grid is refined.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <span>
+#include <stdexcept>
 #include <vector>
 
 #include "embedded_trees.hpp"
@@ -176,6 +179,37 @@ TEST(EmbeddedPoisson, ATubeThroughADirichletSideConverges) {
   const MultigridStats s = solve(op, p, b, ws, {.tolerance = 1e-9, .max_cycles = 30});
   EXPECT_TRUE(s.converged) << "final residual " << s.final_residual;
   EXPECT_LE(s.cycles, 16);
+}
+
+// The cut cells by colour partition each level's cut cells (a smoother's pass lags its own
+// colour's wall sums only), and a solve asking for band passes from a WallFlux built without
+// its band is refused rather than left unrelaxed.
+TEST(EmbeddedPoisson, CutCellsByColourAndTheBandOnDemand) {
+  const Tree<2> t = uniform<2>(6);
+  const EmbeddedGeometry<2> g(t, pipe_wall());
+  const WallFlux<2> listed(t, g), none(t, g, WallFlux<2>::Band::none);
+  EXPECT_TRUE(listed.has_band());
+  EXPECT_FALSE(none.has_band());
+  for (int l = 0; l <= t.depth(); ++l) {
+    std::vector<Index> both(none.cut_cells(l, 0).begin(), none.cut_cells(l, 0).end());
+    both.insert(both.end(), none.cut_cells(l, 1).begin(), none.cut_cells(l, 1).end());
+    std::sort(both.begin(), both.end());
+    const std::span<const Index> all = listed.cut_cells(l);
+    EXPECT_EQ(both, std::vector<Index>(all.begin(), all.end())) << "level " << l;
+    EXPECT_TRUE(none.band(l, 0).empty() && none.band(l, 1).empty());
+  }
+  EXPECT_FALSE(listed.band(6, 0).empty());
+  std::vector<double> alpha, lambda;
+  embedded_face_coefficients<2>(t, g, 1.0, alpha);
+  embedded_cell_coefficients<2>(t, g, 0.0, lambda);
+  const auto dirichlet = tree::BoundaryConditions<2>::all(tree::BcKind::dirichlet);
+  const EllipticOperator<2, EmbeddedFaces<2>, EmbeddedCells, WallTerms<2>> op(
+      t, {1.0, alpha.data(), g.uniform().data()}, {0.0, lambda.data(), g.uniform().data()}, dirichlet, {&none, 1.0});
+  std::vector<double> u(static_cast<std::size_t>(t.num_cells()), 0.0), b(u.size(), -1.0);
+  MultigridWorkspace ws;
+  EXPECT_THROW((void)solve(op, u, b, ws, {.tolerance = 1e-8}), std::invalid_argument);
+  const MultigridStats s = solve(op, u, b, ws, {.tolerance = 1e-8, .wall_band_passes = 0});
+  EXPECT_TRUE(s.converged);
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 #include <bit>
 #include <cmath>
 #include <span>
+#include <stdexcept>
 #include <type_traits>
 #include <utility>
 
@@ -160,10 +161,10 @@ class EllipticOperator {
         // of the other one already hold their owners' values, and only half are sent.
         const bool exchange = !tree_.replicated_level(l);
         relax_wall_band(l, lv, diag, da, res, scratch, exchange, opt.wall_band_passes);
-        lag_wall_terms(l, da, scratch);
+        lag_wall_terms(l, 0, da, scratch);
         relax_colour<0>(l, lv, diag, da, res, {});
         if (exchange) tree_.update_ghosts(l, da, 0);
-        lag_wall_terms(l, da, scratch);
+        lag_wall_terms(l, 1, da, scratch);
         relax_colour<1>(l, lv, diag, da, res, fuse && last ? corrected : std::span<double>{});
         if (exchange) tree_.update_ghosts(l, da, 1);
       } else {
@@ -214,11 +215,12 @@ class EllipticOperator {
   // The walls' part of L(a)_c (only compiled in with walls: x + 0.0 is not folded away).
   double wall_term(Index c, std::span<const double> a) const { return walls_.cut(c) ? walls_.term(c, a) : 0.0; }
 
-  // Before a colour's pass: each cut cell of level l gets the walls' sum over the rest of
-  // its stencil, at the values da holds now, in scratch (unused by red-black otherwise).
-  void lag_wall_terms(int l, std::span<const double> da, std::span<double> scratch) const {
+  // Before a colour's pass: each cut cell of level l and that colour gets the walls' sum
+  // over the rest of its stencil, at the values da holds now, in scratch (unused by
+  // red-black otherwise).
+  void lag_wall_terms(int l, int colour, std::span<const double> da, std::span<double> scratch) const {
     if constexpr (Walls::kActive) {
-      const std::span<const Index> cut = walls_.flux->cut_cells(l);
+      const std::span<const Index> cut = walls_.flux->cut_cells(l, colour);
       const auto n = static_cast<Index>(cut.size());
 #pragma omp parallel for schedule(static) if (n > kWallListParallelMin)
       for (Index i = 0; i < n; ++i) scratch[cut[i]] = walls_.others(cut[i], da);
@@ -230,9 +232,11 @@ class EllipticOperator {
   void relax_wall_band(int l, const tree::Level<D>& lv, const Diagonal& dg, std::span<double> da, std::span<const double> res,
                        std::span<double> scratch, bool exchange, int passes) const {
     if constexpr (Walls::kActive) {
+      if (passes > 0 && !walls_.flux->has_band())
+        throw std::invalid_argument("EllipticOperator::relax: wall_band_passes > 0 with a WallFlux built without its band");
       for (int pass = 0; pass < passes; ++pass)
         for (int colour = 0; colour < 2; ++colour) {
-          lag_wall_terms(l, da, scratch);
+          lag_wall_terms(l, colour, da, scratch);
           // A colour's cells read the other colour only (and the lagged sums): in any order.
           const std::span<const Index> band = walls_.flux->band(l, colour);
           const auto n = static_cast<Index>(band.size());

@@ -34,13 +34,14 @@ constexpr double kNoNormal = 1e-9;
 }  // namespace
 
 template <int D>
-WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry) {
+WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry, Band band) : has_band_(band == Band::listed) {
   using Vec = Eigen::Matrix<double, D, 1>;
   using Mat = Eigen::Matrix<double, D, D>;
   row_.assign(static_cast<std::size_t>(t.num_cells()), -1);
   start_.assign(1, 0);
   cut_cells_.assign(static_cast<std::size_t>(t.depth() + 1), {});
   band_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
+  cut_by_colour_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
   const std::span<const double> volume = geometry.volume();
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
@@ -108,6 +109,12 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
       wall_.push_back(-total);
       start_.push_back(static_cast<std::int32_t>(cell_.size()));
     }
+    auto colour_of = [&lv](Index c) {
+      return std::popcount(lv.keys[static_cast<std::size_t>(c - lv.base)] & (tree::kChildren<D> - 1)) & 1;
+    };
+    for (const Index c : cut_cells_[static_cast<std::size_t>(l)])
+      cut_by_colour_[static_cast<std::size_t>(2 * l + colour_of(c))].push_back(c);
+    if (!has_band_) continue;
     // The band: the cut cells and their neighbours with fluid, by colour.
     std::vector<Index> near(cut_cells_[static_cast<std::size_t>(l)]);
     for (int ring = 0; ring < kBandRings; ++ring) {
@@ -126,8 +133,7 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
     const bool every_cell = !t.distributed() || t.replicated_level(l);
     for (const Index c : near) {
       if (!every_cell && !t.owns(c)) continue;
-      const int colour = std::popcount(lv.keys[static_cast<std::size_t>(c - lv.base)] & (tree::kChildren<D> - 1)) & 1;
-      band_[static_cast<std::size_t>(2 * l + colour)].push_back(c);
+      band_[static_cast<std::size_t>(2 * l + colour_of(c))].push_back(c);
     }
   }
 }

@@ -34,8 +34,13 @@ namespace capsflow::fluid {
 template <int D>
 class WallFlux {
  public:
+  // Whether to list the band near the walls that MultigridOptions::wall_band_passes relaxes
+  // again (the Navier-Stokes solver's viscous solves take no band passes: it skips the
+  // sorting, a tenth of an adaptation's rebuild).
+  enum class Band { listed, none };
+
   // The stencils of every cut active cell of t (every level).
-  WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry);
+  WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry, Band band = Band::listed);
 
   // Whether cell c has a wall stencil.
   bool cut(Index c) const { return row_[static_cast<std::size_t>(c)] >= 0; }
@@ -54,9 +59,12 @@ class WallFlux {
   }
   // The cut cells of level l (every active one with a wall).
   std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
+  // The same, of one red-black colour (a smoother's pass needs its own colour's only).
+  std::span<const Index> cut_cells(int l, int colour) const { return cut_by_colour_[static_cast<std::size_t>(2 * l + colour)]; }
   // The active cells of level l with fluid within the 3^D block of a cut cell, of one
   // red-black colour: where the walls' stencils make the smoothing slow, relaxed again.
   std::span<const Index> band(int l, int colour) const { return band_[static_cast<std::size_t>(2 * l + colour)]; }
+  bool has_band() const { return has_band_; }
   // Cut cells whose block had too few cells with fluid for a gradient: they fall back to the
   // one-sided difference a_c - a_wall over the distance from the centre to the wall plane
   // (at least h/2). None in a geometry resolved by a few cells.
@@ -68,7 +76,9 @@ class WallFlux {
   std::vector<Index> cell_;
   std::vector<double> weight_, self_, wall_;
   std::vector<std::vector<Index>> cut_cells_;
+  std::vector<std::vector<Index>> cut_by_colour_;
   std::vector<std::vector<Index>> band_;
+  bool has_band_ = false;
   std::int64_t fallbacks_ = 0;
 };
 
