@@ -182,7 +182,11 @@ class FlowRun {
         if (e.name == "face_velocity") restart_faces_ = e.values;
       if (comm_.size() == 1 && !restart_faces_.empty()) restore_faces();
     } else {
-      if (comm_.size() > 1) distribute_coarse_start();
+      if (comm_.size() > 1) {
+        distribute_coarse_start();
+        // The walls on each rank's part: the refinement's criteria skip the solid's cells.
+        if (solid_) ns_.set_solid(solid_);
+      }
       if (capsules_) capsules_->distribute();  // each rank keeps its own (N ranks)
       (void)adaptation_.refine_initial();
       budget_->start();

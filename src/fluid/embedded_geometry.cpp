@@ -21,6 +21,18 @@ tree::Coords<D> slot_coords(const tree::Level<D>& lv, Index c) {
   return lv.boundary_coords[static_cast<std::size_t>(local - lv.n_active - lv.n_halo)];
 }
 
+// A box's centre and half diagonal: every point of the box lies within it of the centre.
+template <int D>
+std::pair<tree::Point<D>, double> centre_and_half_diagonal(const tree::Box<D>& b) {
+  tree::Point<D> centre{};
+  double squared = 0.0;
+  for (int d = 0; d < D; ++d) {
+    centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
+    squared += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
+  }
+  return {centre, std::sqrt(squared)};
+}
+
 }  // namespace
 
 template <int D>
@@ -39,13 +51,15 @@ double EmbeddedGeometry<D>::signed_distance(const tree::Point<D>& x) const {
 
 template <int D>
 bool EmbeddedGeometry<D>::near_wall(const tree::Box<D>& b, double margin) const {
-  tree::Point<D> centre{};
-  double half_diagonal = 0.0;
-  for (int d = 0; d < D; ++d) {
-    centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
-    half_diagonal += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
-  }
-  return !(signed_distance(centre) > std::sqrt(half_diagonal) + margin);
+  const auto [centre, half_diagonal] = centre_and_half_diagonal<D>(b);
+  // |phi| is a lower bound of the distance to the wall on both sides (geometry/solid.hpp).
+  return !(std::abs(signed_distance(centre)) > half_diagonal + margin);
+}
+
+template <int D>
+bool EmbeddedGeometry<D>::surely_solid(const tree::Box<D>& b) const {
+  const auto [centre, half_diagonal] = centre_and_half_diagonal<D>(b);
+  return signed_distance(centre) < -half_diagonal;
 }
 
 template <int D>

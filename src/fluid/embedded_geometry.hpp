@@ -52,9 +52,12 @@ class EmbeddedGeometry {
   std::array<double, (1 << D)> corner_values(Index c, int l) const;
   // phi at a point of the brick (2D cases: the section z = 0 of the solid); > 0 in the fluid.
   double signed_distance(const tree::Point<D>& x) const;
-  // Whether some point within `margin` of the box b may be solid or on the wall (false only
-  // when the box and its margin are surely fluid): for refinement along the walls.
+  // Whether the box b, grown by `margin`, may reach the wall (false when it is surely all
+  // fluid or all solid): for refinement along the walls.
   bool near_wall(const tree::Box<D>& b, double margin) const;
+  // Whether the box b is surely all solid (no fluid, no wall): the brick's sides buried in a
+  // solid are no walls of the flow.
+  bool surely_solid(const tree::Box<D>& b) const;
 
   std::span<const double> volume() const { return volume_; }
   const FaceField<D>& faces() const { return faces_; }

@@ -180,6 +180,10 @@ struct AdaptOptions {
   // Forced refinement: the level a leaf must reach at least, given its box (0: none).
   std::function<int(const Box<D>&)> required_level;
   bool allow_coarsening = true;
+  // Per cell slot, 0 where the criteria do not apply (empty: everywhere): the cells wholly
+  // inside embedded solids, whose values are no flow (a wavelet across the wall would refine
+  // the solid along it).
+  std::span<const std::uint8_t> criteria_mask;
 };
 
 // A partitioned run's link between its local tree and the other ranks

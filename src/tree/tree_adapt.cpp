@@ -73,9 +73,14 @@ AdaptCounts Tree<D>::adapt(const AdaptOptions<D>& opt) {
   for (const WaveletTolerance& c : opt.criteria)
     if (c.field < 0 || c.field >= num_fields())
       throw std::invalid_argument(fmt::format("tree: adapt criterion names field {}, which does not exist", c.field));
+  if (!opt.criteria_mask.empty() && static_cast<Index>(opt.criteria_mask.size()) != num_cells_)
+    throw std::invalid_argument(fmt::format("tree: adapt criteria mask of {} entries for {} cells", opt.criteria_mask.size(), num_cells_));
   for (FieldId f = 0; f < num_fields(); ++f)
     if (fields_[f].prolongation != Prolongation::none) sync(f);
   wavelet_error(opt.criteria, error_);
+  if (!opt.criteria_mask.empty())
+    for (Index c = 0; c < num_cells_; ++c)
+      if (!opt.criteria_mask[static_cast<std::size_t>(c)]) error_[static_cast<std::size_t>(c)] = 0.0f;
 
   flags_.assign(num_cells_, 0);
   const float coarse_below = static_cast<float>(1.0 / 1.5);

@@ -56,6 +56,31 @@ TEST(Adaptation, InitialRefinementForcesEmbeddedWalls) {
   EXPECT_GT(cut, 0);
 }
 
+// The brick's walls buried in a solid are no walls of the flow: a narrower channel made of
+// an embedded box (the fluid 0.25 < y < 0.75) refines along its own walls only, not in the
+// solid along the brick's sides (which refined 1.8x the cells of the seed channel).
+TEST(Adaptation, BrickWallsBuriedInASolidAreNotRefined) {
+  Channel c;
+  c.ns.set_solid(geometry::complement(geometry::box({-1.0, 0.25, -1.0}, {3.0, 0.75, 1.0})));
+  Adaptation<2> a(c.ns, {.min_level = 2, .wall_level = 6});
+  (void)a.refine_initial();
+  int on_embedded = 0, on_buried = 0;
+  for (const tree::Index i : c.tree.leaves()) {
+    const tree::Box<2> b = c.tree.box(i);
+    const int l = c.tree.level_of(i);
+    if (c.ns.embedded()->wall_area(i) > 0.0) {
+      EXPECT_EQ(l, 6) << "a leaf on the embedded wall";
+      ++on_embedded;
+    }
+    if (b.lo[1] <= 1e-12 || b.hi[1] >= 1.0 - 1e-12) {
+      EXPECT_LE(l, 3) << "a leaf on the brick's wall, deep in the solid";
+      ++on_buried;
+    }
+  }
+  EXPECT_GT(on_embedded, 0);
+  EXPECT_GT(on_buried, 0);
+}
+
 TEST(Adaptation, InitialRefinementForcesWallsNotInflowOrOutflow) {
   Channel c;
   Adaptation<2> a(c.ns, {.min_level = 2, .wall_level = 5});

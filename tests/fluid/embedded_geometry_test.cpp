@@ -204,7 +204,14 @@ TEST(EmbeddedGeometry, CellsFarFromTheWallAreFullOrEmpty) {
   EXPECT_FALSE(g.cut_cells(5).empty());
   for (const Index c : g.cut_cells(5)) EXPECT_GT(g.wall_area(c), 0.0);
   EXPECT_TRUE(g.near_wall(t.box(g.cut_cells(5).front()), 0.0));
+  EXPECT_FALSE(g.surely_solid(t.box(g.cut_cells(5).front())));
+  // Far in the fluid and deep in the ball: no wall within reach.
   EXPECT_FALSE(g.near_wall({{0.0, 0.0, 0.0}, {0.1, 0.1, 0.1}}, 0.05));
+  EXPECT_FALSE(g.surely_solid({{0.0, 0.0, 0.0}, {0.1, 0.1, 0.1}}));
+  EXPECT_FALSE(g.near_wall({{0.45, 0.45, 0.45}, {0.55, 0.55, 0.55}}, 0.05));
+  EXPECT_TRUE(g.surely_solid({{0.45, 0.45, 0.45}, {0.55, 0.55, 0.55}}));
+  // The margin reaches the wall (0.25 - 0.0866 from the centre to the box's corner).
+  EXPECT_TRUE(g.near_wall({{0.45, 0.45, 0.45}, {0.55, 0.55, 0.55}}, 0.2));
 }
 
 }  // namespace

@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
 
 #include "tree_invariants.hpp"
 
@@ -47,6 +50,37 @@ TEST(Wavelet, RefinesAtASharpFeatureOnly) {
   }
   EXPECT_GT(finest, 300);
   EXPECT_LT(t.num_leaves(), (1 << 18) / 10) << "far fewer leaves than the uniform grid";
+}
+
+// Masked cells (those inside embedded solids) neither refine for their wavelets nor keep
+// their level: the front's right half is masked and ends as coarse as the far field.
+TEST(Wavelet, MaskedCellsFollowNoCriterion) {
+  Tree<2> t({.roots = {1, 1}, .max_level = 7});
+  t.refine_to([](const Box<2>&) { return 4; });
+  const FieldId f = t.add_field({.name = "front"});
+  std::vector<std::uint8_t> mask;
+  auto reset = [&] {
+    for (const Index c : t.leaves()) t.values(f)[c] = front(t.center(c));
+    mask.assign(static_cast<std::size_t>(t.num_cells()), 1);
+    for (Index c = 0; c < t.num_cells(); ++c)
+      if (t.box(c).lo[0] >= 0.5) mask[static_cast<std::size_t>(c)] = 0;
+  };
+  reset();
+  for (int pass = 0; pass < 8; ++pass) {
+    (void)t.adapt({.criteria = {{f, 1e-2}}, .min_level = 3, .criteria_mask = mask});
+    reset();
+  }
+  testing::check_invariants(t);
+  int fine_left = 0;
+  for (const Index c : t.leaves()) {
+    const int l = t.level_of(c);
+    if (t.box(c).lo[0] >= 0.75) {
+      EXPECT_LE(l, 4) << "a masked leaf away from the unmasked half";  // 2:1 grading from x = 0.5
+    }
+    fine_left += l == 7 && t.box(c).hi[0] <= 0.5;
+  }
+  EXPECT_GT(fine_left, 0) << "the unmasked half of the front is refined";
+  EXPECT_THROW((void)t.adapt({.criteria = {{f, 1e-2}}, .criteria_mask = std::vector<std::uint8_t>(3, 1)}), std::invalid_argument);
 }
 
 TEST(Wavelet, CoarsensAConstantField) {
