@@ -82,6 +82,10 @@ void NavierStokes<D>::update_properties() {
     rho_min = std::min(rho_min, rho[c]);
     mu_min = std::min(mu_min, mu[c]);
   }
+  // The least over all ranks: it scales the viscous solves' tolerance, which must be one
+  // number on every rank (a per-rank value let ranks stop at different cycles). NaN stays NaN.
+  rho_min = -tree_.global_max(-rho_min);
+  mu_min = -tree_.global_max(-mu_min);
   if (!(rho_min > 0.0) || !(mu_min > 0.0) || rho_min == 1e300 || mu_min == 1e300)
     throw std::invalid_argument(
         fmt::format("flow properties: min density {}, min viscosity {}: both must be > 0", rho_min, mu_min));

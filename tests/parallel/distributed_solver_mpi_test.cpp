@@ -402,9 +402,11 @@ void expect_same_rows(const std::vector<Row>& serial, const std::vector<Row>& di
 // (velocity wavelets) before every such step.
 template <int D>
 std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector<std::vector<double>>* final_u = nullptr,
-                     int adapt_every = 0, int min_level = 0, const geometry::SolidPtr& solid = nullptr) {
+                     int adapt_every = 0, int min_level = 0, const geometry::SolidPtr& solid = nullptr,
+                     const typename NavierStokes<D>::Properties& properties = {}) {
   NavierStokes<D> ns(t, o);
   if (solid) ns.set_solid(solid);
+  if (properties) ns.set_properties(properties);
   std::vector<Row> rows;
   for (int s = 0; s < steps; ++s) {
     if (adapt_every > 0 && s % adapt_every == 0) {
@@ -421,16 +423,17 @@ std::vector<Row> run(Tree<D>& t, const FlowOptions<D>& o, int steps, std::vector
 
 template <int D>
 void check_flow(const TreeOptions<D>& to, const std::function<int(const Box<D>&)>& levels, const FlowOptions<D>& o,
-                int steps, int adapt_every = 0, int min_level = 0, const geometry::SolidPtr& solid = nullptr) {
+                int steps, int adapt_every = 0, int min_level = 0, const geometry::SolidPtr& solid = nullptr,
+                const typename NavierStokes<D>::Properties& properties = {}) {
   const parallel::Comm comm = parallel::Comm::world();
   Tree<D> serial(to);
   serial.refine_to(levels);
   std::vector<std::vector<double>> u_serial, u;
-  const auto rows_serial = run(serial, o, steps, &u_serial, adapt_every, min_level, solid);
+  const auto rows_serial = run(serial, o, steps, &u_serial, adapt_every, min_level, solid, properties);
   Tree<D> fresh(to);
   fresh.refine_to(levels);
   const auto forest = distribute(comm, fresh);
-  const auto rows = run(fresh, o, steps, &u, adapt_every, min_level, solid);
+  const auto rows = run(fresh, o, steps, &u, adapt_every, min_level, solid, properties);
   expect_same_rows<D>(rows_serial, rows);
   double worst = 0.0, scale = 0.0;
   for (const Index c : fresh.owned_leaves()) {
@@ -462,6 +465,22 @@ TEST(DistributedFlow, CavityGradedNavierStokesMatchesSerial2D) {
   // Finer towards the lid: resolution jumps cross the partition boundaries.
   check_flow<2>({.roots = {1, 1}, .max_level = 6}, [](const Box<2>& b) { return b.hi[1] > 0.8 ? 6 : (b.hi[1] > 0.5 ? 5 : 4); },
                 {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<2>()}, 15);
+}
+
+// Density and viscosity varying across the cavity, the lightest fluid in the lid's corner
+// (a density ratio of 100) and the most viscous at the bottom: each rank's part has its own
+// least density, and the viscous solves' tolerance,
+// scaled by it, must be the same on every rank (else they stop at different cycles).
+TEST(DistributedFlow, CavityWithVaryingPropertiesMatchesSerial2D) {
+  const NavierStokes<2>::Properties layers = [](const Tree<2>& t, std::span<double> rho, std::span<double> mu) {
+    for (Index c = 0; c < t.num_cells(); ++c) {
+      const double x = t.center(c)[0], y = t.center(c)[1];
+      rho[static_cast<std::size_t>(c)] = 1.0 + 99.0 * std::min(1.0, 4.0 * ((1.0 - x) * (1.0 - x) + (1.0 - y) * (1.0 - y)));
+      mu[static_cast<std::size_t>(c)] = 1.0 + 4.0 * (1.0 - y);
+    }
+  };
+  check_flow<2>({.roots = {1, 1}, .max_level = 5}, [](const Box<2>&) { return 5; },
+                {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<2>(), .viscous = {.tolerance = 1e-7}}, 8, 0, 0, nullptr, layers);
 }
 
 TEST(DistributedFlow, CavityStokesMatchesSerial3D) {

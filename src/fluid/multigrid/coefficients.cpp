@@ -1,30 +1,75 @@
 #include "fluid/multigrid/coefficients.hpp"
 
+#include <array>
+#include <span>
+#include <vector>
+
 #include "common/assert.hpp"
 
 namespace capsflow::fluid {
 
 namespace {
 
+// N ranks, level by level: every ghost cell of level l gets its owner's values (the faces of
+// a ghost leaf at the edge of this rank's part reach cells it does not have, so only the
+// owner computes them right).
+template <int D>
+class OwnersValues {
+ public:
+  OwnersValues(const tree::Tree<D>& t, std::vector<double>& out) : t_(t), out_(out) {
+    if (!t.distributed()) return;
+    const auto n = static_cast<std::size_t>(t.num_cells());
+    for (int k = 0; k < F; ++k) {
+      parts_[k].resize(n);
+      spans_[k] = parts_[k];
+    }
+  }
+  // Level l's ghosts take their owners' values (collective: every rank, every level).
+  void take(int l) {
+    if (!t_.distributed()) return;
+    // A rank whose tree is shallower than the forest still joins the exchange, with nothing.
+    const bool held = l <= t_.depth();
+    const Index begin = held ? t_.level(l).base : 0, end = held ? t_.level(l).active_end() : 0;
+    for (int k = 0; k < F; ++k)
+      for (Index c = begin; c < end; ++c) parts_[k][c] = out_[static_cast<std::size_t>(c) * F + k];
+    t_.update_ghosts(l, tree::Distribution::Fields(spans_.data(), spans_.size()));
+    for (int k = 0; k < F; ++k)
+      for (Index c = begin; c < end; ++c) out_[static_cast<std::size_t>(c) * F + k] = parts_[k][c];
+  }
+
+ private:
+  static constexpr int F = 2 * D;
+  const tree::Tree<D>& t_;
+  std::vector<double>& out_;
+  std::array<std::vector<double>, F> parts_;
+  std::array<std::span<double>, F> spans_;
+};
+
 // Parents get the mean of their children's values on the same side, bottom-up; then a leaf
 // facing a parent takes the parent's (fine-averaged) value on their common face, so both
 // sides of every face of a level see the same coefficient (a symmetric level operator).
-// `out` holds the leaves' values on entry.
+// `out` holds the leaves' values on entry. N ranks: each level's ghosts take their owners'
+// values before the level above reads them, as Tree::restrict_and_exchange does.
 template <int D>
 void average_onto_parents(const tree::Tree<D>& t, std::vector<double>& out) {
   constexpr int F = 2 * D;
-  for (int l = t.depth() - 1; l >= 0; --l) {
-    const tree::Level<D>& lv = t.level(l);
-    for (Index i = 0; i < lv.n_active; ++i) {
-      if (lv.leaf[i]) continue;
-      const Index c = lv.base + i, fc = lv.first_child[i];
-      for (int k = 0; k < F; ++k) {
-        double sum = 0.0;
-        for (int b = 0; b < tree::kChildren<D>; ++b)
-          if (tree::child_bit(b, k / 2) == (k & 1)) sum += out[static_cast<std::size_t>(fc + b) * F + k];
-        out[static_cast<std::size_t>(c) * F + k] = sum / (tree::kChildren<D> / 2);
+  OwnersValues<D> owners(t, out);
+  const int top = t.distributed() ? t.global_depth() : t.depth();
+  for (int l = top; l >= 0; --l) {
+    if (l < t.depth()) {
+      const tree::Level<D>& lv = t.level(l);
+      for (Index i = 0; i < lv.n_active; ++i) {
+        if (lv.leaf[i]) continue;
+        const Index c = lv.base + i, fc = lv.first_child[i];
+        for (int k = 0; k < F; ++k) {
+          double sum = 0.0;
+          for (int b = 0; b < tree::kChildren<D>; ++b)
+            if (tree::child_bit(b, k / 2) == (k & 1)) sum += out[static_cast<std::size_t>(fc + b) * F + k];
+          out[static_cast<std::size_t>(c) * F + k] = sum / (tree::kChildren<D> / 2);
+        }
       }
     }
+    owners.take(l);
   }
   for (int l = 0; l < t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
