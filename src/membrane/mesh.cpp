@@ -120,6 +120,24 @@ void check_element_shape(const Mesh& mesh, std::int64_t e) {
 
 }  // namespace
 
+std::vector<std::array<int, 3>> flat_triangles(const Mesh& mesh) {
+  std::vector<std::array<int, 3>> out;
+  const std::int64_t n = mesh.element_count();
+  out.reserve(static_cast<std::size_t>(n) * (mesh.order == Order::p2 ? 4 : 1));
+  for (std::int64_t e = 0; e < n; ++e) {
+    const auto v = mesh.element(e);
+    if (mesh.order == Order::p1) {
+      out.push_back({v[0], v[1], v[2]});
+    } else {
+      out.push_back({v[0], v[3], v[5]});
+      out.push_back({v[3], v[1], v[4]});
+      out.push_back({v[5], v[4], v[2]});
+      out.push_back({v[3], v[4], v[5]});
+    }
+  }
+  return out;
+}
+
 Mesh make_icosphere(const IcosphereOptions& options) {
   const bool p2 = options.order == Order::p2;
   const int min_level = p2 ? min_icosphere_level_p2 : min_icosphere_level_p1;

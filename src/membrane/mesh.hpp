@@ -12,6 +12,7 @@
 // 20 480 P1 or 5 120 P2 triangles, as in the seed paper).
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -74,6 +75,12 @@ inline constexpr int min_icosphere_level_p2 = 3;
 
 // Throws std::invalid_argument naming the level (or radius) when out of range.
 [[nodiscard]] Mesh make_icosphere(const IcosphereOptions& options);
+
+// The surface as flat triangles on the mesh's nodes, counter-clockwise seen from outside: a
+// P1 element itself, a P2 element as the four triangles of its corner and mid-edge nodes
+// (0 3 5, 3 1 4, 5 4 2, 3 4 5). What the inside of a membrane on the grid is cut by
+// (ibm/indicator.hpp); the curved P2 surface lies within O(h^2) of it.
+[[nodiscard]] std::vector<std::array<int, 3>> flat_triangles(const Mesh& mesh);
 
 // Checks a reference mesh: indices in range and distinct within an element, every element
 // non-degenerate (positive area element at its centroid and vertices, no fold of a P2
