@@ -7,6 +7,8 @@
 //   ibm/interpolate/<kernel>  cell velocities -> node velocities
 //   ibm/face_force            cell force -> face force (every fine face, then coarse faces)
 //   ibm/tags                  MembraneTags::build + one required-level query per leaf
+//   ibm/inside                the inside of the membrane at every leaf near it
+//                             (ibm::inside_cells on the P2 sphere's 20 480 flat triangles)
 // Counters: nodes, nodes_per_s, leaves, threads, sweep_s (one dense 7-point Jacobi sweep over
 // as many cells as the tree has leaves, measured in the same run) and sweeps = seconds per
 // iteration / sweep_s: the cost in units of one fluid relaxation sweep.
@@ -18,6 +20,7 @@
 #include <string>
 
 #include "baseline.hpp"
+#include "ibm/indicator.hpp"
 #include "ibm/interpolate.hpp"
 #include "ibm/refinement_tags.hpp"
 #include "ibm/spread.hpp"
@@ -115,6 +118,20 @@ void tags(benchmark::State& state) {
   });
 }
 
+void inside(benchmark::State& state) {
+  const SeedCapsule& s = seed();
+  const membrane::Mesh mesh =
+      membrane::make_icosphere({.order = membrane::Order::p2, .level = 5, .radius = bench::kSeedRadius});
+  const auto triangles = membrane::flat_triangles(mesh);
+  std::size_t cells = 0;
+  timed(state, [&] {
+    const auto in = ibm::inside_cells(s.t, mesh.nodes, triangles, ibm::KernelKind::cosine, s.t.max_level());
+    cells = in.size();
+    benchmark::DoNotOptimize(in.data());
+  });
+  state.counters["inside_cells"] = static_cast<double>(cells);
+}
+
 const bool registered = [] {
   for (const ibm::KernelKind k : {ibm::KernelKind::cosine, ibm::KernelKind::hat, ibm::KernelKind::peskin4}) {
     const std::string name(ibm::name_of(k));
@@ -125,6 +142,7 @@ const bool registered = [] {
   }
   benchmark::RegisterBenchmark("ibm/face_force", face_force)->UseRealTime()->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("ibm/tags", tags)->UseRealTime()->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("ibm/inside", inside)->UseRealTime()->Unit(benchmark::kMillisecond);
   return true;
 }();
 

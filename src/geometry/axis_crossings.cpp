@@ -46,16 +46,18 @@ AxisCrossings::AxisCrossings(const Eigen::Matrix3Xd& vertices, std::span<const s
     }
     const double area = orient(p[0], p[1], p[2]);  // = the 3D normal's component along a
     if (area == 0.0) continue;  // parallel to the lines: its neighbours hold its edges
-    const double sign = area > 0.0 ? 1.0 : -1.0;
-    const Eigen::Vector3d n3 = (vertices.col(tri[1]) - vertices.col(tri[0])).cross(vertices.col(tri[2]) - vertices.col(tri[0]));
-    const double normal = area / n3.norm();
-    // Lines whose (j + 1/2) h lies within the projection's bounding box.
+    // Lines whose (j + 1/2) h lies within the projection's bounding box (most triangles hold
+    // none at the coarse levels).
     std::array<long, 2> first{}, last{};
-    for (int e = 0; e < 2; ++e) {
+    for (std::size_t e = 0; e < 2; ++e) {
       const double lo = std::min({p[0][e], p[1][e], p[2][e]}), hi = std::max({p[0][e], p[1][e], p[2][e]});
       first[e] = std::max(grid.lo[e], static_cast<long>(std::ceil((lo - grid.origin[e]) / grid.h - 0.5)));
       last[e] = std::min(grid.hi[e], static_cast<long>(std::floor((hi - grid.origin[e]) / grid.h - 0.5)));
     }
+    if (first[0] > last[0] || first[1] > last[1]) continue;
+    const double sign = area > 0.0 ? 1.0 : -1.0;
+    const Eigen::Vector3d n3 = (vertices.col(tri[1]) - vertices.col(tri[0])).cross(vertices.col(tri[2]) - vertices.col(tri[0]));
+    const double normal = area / n3.norm();
     for (long j = first[0]; j <= last[0]; ++j)
       for (long k = first[1]; k <= last[1]; ++k) {
         const Point2 q{grid.origin[0] + (static_cast<double>(j) + 0.5) * grid.h,
@@ -78,14 +80,16 @@ AxisCrossings::AxisCrossings(const Eigen::Matrix3Xd& vertices, std::span<const s
         found.push_back({index(j, k), AxisCrossing{s, normal}});
       }
   }
-  std::sort(found.begin(), found.end(), [](const auto& x, const auto& y) {
-    return x.first != y.first ? x.first < y.first : x.second.s < y.second.s;
-  });
+  // Bucketed by line (a counting sort), then each line's few crossings in order along it.
   start_.assign(static_cast<std::size_t>(lines + 1), 0);
   for (const auto& f : found) ++start_[static_cast<std::size_t>(f.first + 1)];
   for (long i = 0; i < lines; ++i) start_[static_cast<std::size_t>(i + 1)] += start_[static_cast<std::size_t>(i)];
-  crossings_.reserve(found.size());
-  for (const auto& f : found) crossings_.push_back(f.second);
+  crossings_.resize(found.size());
+  std::vector<long> next(start_.begin(), start_.end() - 1);
+  for (const auto& f : found) crossings_[static_cast<std::size_t>(next[static_cast<std::size_t>(f.first)]++)] = f.second;
+  for (long i = 0; i < lines; ++i)
+    std::sort(crossings_.begin() + start_[static_cast<std::size_t>(i)], crossings_.begin() + start_[static_cast<std::size_t>(i + 1)],
+              [](const AxisCrossing& x, const AxisCrossing& y) { return x.s < y.s; });
 }
 
 std::span<const AxisCrossing> AxisCrossings::line(long j, long k) const {

@@ -38,7 +38,8 @@ struct InsideCell {
   double value = 0.0;  // I in (0, 1]
 };
 
-// I at the centre of every leaf this rank owns where I > 0, in the order of owned_leaves().
+// I at the centre of every leaf this rank owns where I > 0, in the order of the space-filling
+// curve (for each periodic image of the membrane that reaches the brick).
 // vertices: the membrane's node positions (unwrapped across periodic sides: the nearest
 // periodic image of the membrane counts); triangles: counter-clockwise seen from outside.
 // level: where the forces are spread (the transition's h is that level's cell size).
