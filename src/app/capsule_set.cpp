@@ -109,6 +109,16 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : ca
     coupling_->add_capsule(std::move(model), std::move(x),
                            {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel), .staggered = k.staggered,
                             .divergence_free = k.divergence_free});
+    coupling_->set_inner_fluid(index, {.viscosity_ratio = k.viscosity_ratio, .density_ratio = k.density_ratio});
+  }
+  if (coupling_->any_inner_fluid()) {
+    // The flow's density and viscosity from the capsules' insides, at the start of each step.
+    const fluid::FlowOptions<3>& o = ns.options();
+    const double rho_out = o.density, mu_out = o.viscosity > 0.0 ? o.viscosity : 1.0 / o.Re;
+    ns.set_properties([coupling = coupling_.get(), rho_out, mu_out](const tree::Tree<3>&, std::span<double> rho,
+                                                                    std::span<double> mu) {
+      coupling->inner_properties(rho_out, mu_out, rho, mu);
+    });
   }
 }
 

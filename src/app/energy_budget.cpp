@@ -90,6 +90,7 @@ void EnergyBudget<D>::after_adaptation() {
   // Phi and P_b stay the step's (the next step's trapezoid starts from them): what the
   // transfer changes in them is of the transfer's order, and re-measuring them would cost a
   // sync and a pass over the faces at every adaptation.
+  ns_.refresh_properties();  // an inner fluid's density on the new cells
   const double kinetic = fluid::kinetic_energy(ns_);
   adaptation_loss_ += flow_.kinetic - kinetic;
   flow_.kinetic = kinetic;

@@ -89,6 +89,7 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
   const bool advection = !ns.options().stokes;
   const FlowConditions<D>& conditions = ns.conditions();
 
+  ns.refresh_properties();
   FlowEnergy e;
   e.kinetic = kinetic_energy(ns);
   // Per face: the dissipation without its factor mu h^(D-2) where mu is constant (the leaf's

@@ -77,8 +77,12 @@ template <int D>
 void NavierStokes<D>::update_properties() {
   const std::span<double> rho = tree_.values(rho_field_), mu = tree_.values(mu_field_);
   properties_(tree_, rho, mu);
+  if (tree_.distributed()) {  // the face means read the neighbours: ghosts take their owners' values
+    std::array<std::span<double>, 2> both{rho, mu};
+    tree_.update_ghosts(tree::Distribution::Fields(both.data(), both.size()));
+  }
   double rho_min = 1e300, mu_min = 1e300;
-  for (const Index c : tree_.leaves()) {
+  for (const Index c : tree_.owned_leaves()) {
     rho_min = std::min(rho_min, rho[c]);
     mu_min = std::min(mu_min, mu[c]);
   }
@@ -90,6 +94,7 @@ void NavierStokes<D>::update_properties() {
     throw std::invalid_argument(
         fmt::format("flow properties: min density {}, min viscosity {}: both must be > 0", rho_min, mu_min));
   rho_min_ = rho_min;
+  properties_stale_ = false;
   face_coefficients<D>(tree_, rho, FaceMean::inverse_arithmetic, alpha_faces_);
   face_coefficients<D>(tree_, mu, FaceMean::harmonic, mu_faces_);
   // The explicit transpose stress, from the velocity at the start of the step (walls at

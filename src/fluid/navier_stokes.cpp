@@ -56,6 +56,7 @@ void NavierStokes<D>::resize_scratch() {
   for (auto& s : source_) s.assign(n, 0.0);
   div_.assign(n, 0.0);
   rhs_.assign(n, 0.0);
+  properties_stale_ = true;
   if (properties_) {
     lambda_.assign(n, 0.0);
     for (auto& s : transpose_) s.assign(n, 0.0);
@@ -478,6 +479,7 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
     }
   }
   const Index cells_before = tree_.num_cells();
+  properties_stale_ = true;  // the tree's adapt refills no property field, even when nothing changed
   const auto counts = tree_.adapt(opt);
   if (keep && counts.refined == 0 && counts.coarsened == 0 && tree_.num_cells() == cells_before) {
     return counts;  // no rebuild: the same cells, the faces still the projected ones

@@ -146,7 +146,8 @@ class NavierStokes {
       for (auto& component : force_) std::fill(component.begin(), component.end(), 0.0);
   }
 
-  // Density and viscosity as cell fields: `f` fills rho and mu (> 0) on the leaves; it is
+  // Density and viscosity as cell fields: `f` fills rho and mu (> 0) on the leaves this rank
+  // owns (N ranks: the ghosts then take their owners' values); it is
   // called at the start of every step, after any adapt, so the properties may follow a
   // moving interface. They are tree fields "rho" and "mu" (registered by the first call)
   // that adapt() only resizes: nothing is carried, since f refills them. The constants of
@@ -154,6 +155,12 @@ class NavierStokes {
   using Properties = std::function<void(const tree::Tree<D>&, std::span<double> rho, std::span<double> mu)>;
   void set_properties(Properties f);
   bool variable_properties() const { return static_cast<bool>(properties_); }
+  // With set_properties: evaluates them now if the tree changed since they were last
+  // evaluated (before the first step, after an adapt or a restart), so that a reader between
+  // steps (the energy diagnostics) reads this tree's values. Collective on N ranks.
+  void refresh_properties() {
+    if (properties_ && properties_stale_) update_properties();
+  }
   // The leaves' densities of this step (for a gravity force rho_f g, with the solver's
   // rho_f = the mean of the two cells).
   std::span<const double> density() const { return tree_.values(rho_field_); }
@@ -289,6 +296,7 @@ class NavierStokes {
   MultigridWorkspace mg_;
   // Variable properties (empty unless set_properties was called).
   Properties properties_;
+  bool properties_stale_ = true;  // the tree changed since update_properties
   tree::FieldId rho_field_ = -1, mu_field_ = -1;
   std::vector<double> alpha_faces_, mu_faces_;  // 1/rho and mu, 2D per cell slot
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve

@@ -102,6 +102,10 @@ int CapsuleCoupling::add_capsule(membrane::MembraneModel model, Eigen::Matrix3Xd
       },
       model.law()));
   kernels_.push_back(kernels);
+  inner_.push_back({});
+  auto triangles = membrane::flat_triangles(model.mesh());
+  if (!surfaces_.empty() && *surfaces_.back() == triangles) surfaces_.push_back(surfaces_.back());
+  else surfaces_.push_back(std::make_shared<const std::vector<std::array<int, 3>>>(std::move(triangles)));
   capsules_.push_back(std::make_unique<Capsule>(Capsule{.model = std::move(model), .x = std::move(x), .kernels = kernels}));
   capsules_.back()->x_at_adapt = capsules_.back()->x;
   return num_capsules() - 1;

@@ -43,6 +43,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -162,6 +163,28 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // max-level leaf in a membrane's band near this rank's cells (the bands of the last
   // update_region, which every adaptation calls before it repartitions), 1 elsewhere.
   [[nodiscard]] std::int64_t leaf_weight(int level, tree::Key key, std::int64_t band_weight) const;
+
+  // Inner fluids (issue 29): capsule k holds a liquid `viscosity_ratio` times as viscous and
+  // `density_ratio` times as dense as the one around it (1 and 1, the default: the same).
+  struct InnerFluid {
+    double viscosity_ratio = 1.0;
+    double density_ratio = 1.0;
+    [[nodiscard]] bool same() const { return viscosity_ratio == 1.0 && density_ratio == 1.0; }
+  };
+  void set_inner_fluid(int k, InnerFluid f);
+  [[nodiscard]] const InnerFluid& inner_fluid(int k) const { return inner_.at(static_cast<std::size_t>(k)); }
+  [[nodiscard]] bool any_inner_fluid() const;
+  // The flow's density and viscosity on the leaves this rank owns, from the capsules' node
+  // positions X:
+  //   rho = rho_out (1 + sum_k (r_k - 1) I_k),  mu = mu_out (1 + sum_k (lambda_k - 1) I_k),
+  // I_k the inside of capsule k (indicator.hpp: its flat triangles, its spreading kernel's
+  // profile at the max level), added in capsule order. N ranks: each owner sends its
+  // capsule's positions to the ranks that own cells within reach of its bounding box
+  // (tree::box_owners), and each rank adds the capsules in id order: one rank's numbers to
+  // the bit. The ghosts are left to the caller (NavierStokes exchanges them). Collective.
+  void inner_properties(double rho_out, double mu_out, std::span<double> rho, std::span<double> mu);
+  // Seconds spent in inner_properties since construction.
+  [[nodiscard]] double inside_seconds() const { return inside_seconds_; }
 
   // Capsules this rank handed to another since construction (their centroid left its cells).
   [[nodiscard]] std::int64_t migrations() const { return migrations_; }
@@ -343,6 +366,11 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   std::vector<std::unique_ptr<Capsule>> capsules_;  // by id; null where another rank owns it
   std::vector<KernelChoice> kernels_;              // by id, every capsule
   std::vector<double> moduli_;                     // by id: the stability limit's effective modulus
+  std::vector<InnerFluid> inner_;                  // by id, every capsule
+  // By id, every capsule: its flat triangles (membrane::flat_triangles), shared by capsules
+  // of one mesh, so that any rank can cut any capsule from its positions alone.
+  std::vector<std::shared_ptr<const std::vector<std::array<int, 3>>>> surfaces_;
+  double inside_seconds_ = 0.0;
   // N ranks: the plan of the distributed tree (nullptr on one rank), the capsules' rebuilder,
   // the nodes routed for this step's stages, and the bands of every capsule near this rank's
   // cells (built from the nodes routed at the last update_region).

@@ -77,8 +77,6 @@ struct FluidConfig {
   // (fluid::FlowOptions::carry_faces, current_force_in_viscous): with crank_nicolson and
   // time.node_scheme = "midpoint" the coupled step is second order in time.
   bool carry_faces = false;
-  double density_ratio = 1.0;   // inside / outside capsules
-  double viscosity_ratio = 1.0; // inside / outside capsules
   std::array<BoundaryConfig, 6> boundary{};
   MultigridConfig multigrid{};
   bool operator==(const FluidConfig&) const = default;
@@ -124,6 +122,9 @@ struct CapsuleConfig {
   bool staggered = true;  // spread to and interpolate from the MAC faces (else cell centres)
   // staggered only: the kernels' divergence-free forms (ibm::DivergenceFree), one cell wider
   bool divergence_free = true;
+  // The inner fluid: viscosity and density inside / outside the capsule (issue 29).
+  double viscosity_ratio = 1.0;
+  double density_ratio = 1.0;
   bool operator==(const CapsuleConfig&) const = default;
 };
 

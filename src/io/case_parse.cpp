@@ -95,8 +95,11 @@ void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig
   r.read("stokes", f.stokes);
   r.read("crank_nicolson", f.crank_nicolson);
   r.read("carry_faces", f.carry_faces);
-  r.read("density_ratio", f.density_ratio);
-  r.read("viscosity_ratio", f.viscosity_ratio);
+  // Moved to each capsule (issue 29): one ratio for the whole flow would not say whose inside.
+  for (const std::string_view moved : {"density_ratio", "viscosity_ratio"})
+    if (double v = 0.0; r.read(moved, v))
+      r.source().fail(r.key_path(moved), detail::toml_number(v),
+                      fmt::format("the inner fluid is now given per capsule: set {} in each [[capsule]] table", moved));
   const toml::table* mg = r.table("multigrid");
   const toml::table* bc = r.table("boundary");
   r.finish();
@@ -143,6 +146,8 @@ CapsuleConfig parse_capsule(TableReader r) {
   r.read("interp_kernel", c.interp_kernel, detail::kKernelTypes);
   r.read("staggered", c.staggered);
   r.read("divergence_free", c.divergence_free);
+  r.read("viscosity_ratio", c.viscosity_ratio);
+  r.read("density_ratio", c.density_ratio);
   r.finish();
   return c;
 }

@@ -108,16 +108,6 @@ void check_boundary(const CaseConfig& c, const Checker& ck) {
 
 void check_fluid(const CaseConfig& c, const Checker& ck) {
   ck.positive("fluid.Re", c.fluid.Re);
-  ck.positive("fluid.density_ratio", c.fluid.density_ratio);
-  ck.positive("fluid.viscosity_ratio", c.fluid.viscosity_ratio);
-  // The flow solver takes density and viscosity fields, but nothing yet tells it which
-  // cells are inside a capsule: refuse rather than run a case with the ratio ignored.
-  if (c.fluid.density_ratio != 1.0)
-    ck.fail("fluid.density_ratio", toml_number(c.fluid.density_ratio),
-            "must be 1: inner fluids of another density are not implemented yet");
-  if (c.fluid.viscosity_ratio != 1.0)
-    ck.fail("fluid.viscosity_ratio", toml_number(c.fluid.viscosity_ratio),
-            "must be 1: inner fluids of another viscosity are not implemented yet");
   ck.positive("fluid.multigrid.tolerance", c.fluid.multigrid.tolerance);
   ck.at_least("fluid.multigrid.max_cycles", c.fluid.multigrid.max_cycles, 1);
   check_boundary(c, ck);
@@ -219,6 +209,12 @@ void check_capsule(const CaseConfig& c, std::size_t i, const Checker& ck) {
     ck.positive(fmt::format("{}.axes_factors[{}]", key, d), cap.axes_factors[d]);
   }
   ck.positive(key + ".inflation", cap.inflation);
+  ck.positive(key + ".viscosity_ratio", cap.viscosity_ratio);
+  ck.positive(key + ".density_ratio", cap.density_ratio);
+  if ((cap.viscosity_ratio != 1.0 || cap.density_ratio != 1.0) && !c.solids.empty())
+    ck.fail(key + (cap.viscosity_ratio != 1.0 ? ".viscosity_ratio" : ".density_ratio"),
+            toml_number(cap.viscosity_ratio != 1.0 ? cap.viscosity_ratio : cap.density_ratio),
+            "an inner fluid beside embedded walls ([[solid]]) is not implemented yet");
   for (int d = 0; d < 3; ++d) {
     const double semi = semi_axis(cap, d);
     const double lo = c.domain.origin[d];

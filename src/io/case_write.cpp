@@ -65,8 +65,6 @@ std::string to_toml(const CaseConfig& c) {
   line("stokes", b(c.fluid.stokes));
   line("crank_nicolson", b(c.fluid.crank_nicolson));
   line("carry_faces", b(c.fluid.carry_faces));
-  line("density_ratio", toml_number(c.fluid.density_ratio));
-  line("viscosity_ratio", toml_number(c.fluid.viscosity_ratio));
   out += "\n[fluid.multigrid]\n";
   line("tolerance", toml_number(c.fluid.multigrid.tolerance));
   line("max_cycles", fmt::format("{}", c.fluid.multigrid.max_cycles));
@@ -104,6 +102,8 @@ std::string to_toml(const CaseConfig& c) {
     line("interp_kernel", toml_string(to_string(cap.interp_kernel)));
     line("staggered", b(cap.staggered));
     line("divergence_free", b(cap.divergence_free));
+    line("viscosity_ratio", toml_number(cap.viscosity_ratio));
+    line("density_ratio", toml_number(cap.density_ratio));
   }
 
   for (const SolidConfig& s : c.solids) {

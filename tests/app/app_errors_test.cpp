@@ -55,13 +55,12 @@ TEST(AppErrors, SyntaxUnknownKeyWrongTypeAndRanges) {
   expect_refused(kCavity, "--set fluid.nonsense=1", "fluid.nonsense");
 }
 
-// The inner-fluid ratios are refused until the inner fluid is marked (they used to be
-// ignored silently).
-TEST(AppErrors, InnerFluidRatiosRefused) {
+// The inner fluid is given per capsule: the old global keys name the new ones.
+TEST(AppErrors, GlobalInnerFluidRatiosRefused) {
   expect_refused(kCavity, "--set fluid.viscosity_ratio=4",
-                 "fluid.viscosity_ratio = 4.0 (from --set): must be 1: inner fluids of another viscosity");
+                 "fluid.viscosity_ratio = 4.0 (from --set): the inner fluid is now given per capsule: set viscosity_ratio");
   expect_refused(std::string(kCavity) + "[fluid]\ndensity_ratio = 0.5\n", "",
-                 "fluid.density_ratio = 0.5: must be 1: inner fluids of another density");
+                 "fluid.density_ratio = 0.5: the inner fluid is now given per capsule: set density_ratio");
 }
 
 // Solids are read and checked; embedded walls with carried faces are refused (they must not

@@ -138,8 +138,10 @@ TEST(io_case_errors, InflowOnAPeriodicSide) {
 
 TEST(io_case_errors, NegativeReViscosityOrCfl) {
   EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nRe = -1\n"), HasSubstr("fluid.Re = -1.0: must be > 0"));
-  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nviscosity_ratio = -2.5\n"),
-              HasSubstr("fluid.viscosity_ratio = -2.5: must be > 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nviscosity_ratio = -2.5\n"),
+              HasSubstr("capsule[0].viscosity_ratio = -2.5: must be > 0"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\ndensity_ratio = 0\n"),
+              HasSubstr("capsule[0].density_ratio = 0.0: must be > 0"));
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncfl = -0.5\n"), HasSubstr("time.cfl = -0.5: must be >= 0"));
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nvelocity_tolerance_relative = -0.01\n"),
               HasSubstr("adapt.velocity_tolerance_relative = -0.01: must be >= 0"));
@@ -157,16 +159,20 @@ TEST(io_case_errors, NegativeReViscosityOrCfl) {
               HasSubstr("adapt.membrane_weight = 0: must be >= 1"));
 }
 
-// The ratios are read (the message quotes the value) but refused: nothing marks the inner
-// fluid yet, and a run must not silently ignore them.
-TEST(io_case_errors, InnerFluidRatiosAreNotImplementedYet) {
+// The inner fluid belongs to each capsule: the old global keys are refused, even at 1, with
+// the key that replaces them.
+TEST(io_case_errors, GlobalInnerFluidRatiosNameTheCapsulesKeys) {
   EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\ndensity_ratio = 2.0\n"),
-              HasSubstr("fluid.density_ratio = 2.0: must be 1: inner fluids of another density are not "
-                        "implemented yet"));
-  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nviscosity_ratio = 5.0\n"),
-              HasSubstr("fluid.viscosity_ratio = 5.0: must be 1: inner fluids of another viscosity are not "
-                        "implemented yet"));
-  EXPECT_NO_THROW((void)parse_case_text(std::string(kBase) + "[fluid]\nviscosity_ratio = 1.0\n", "case.toml"));
+              HasSubstr("fluid.density_ratio = 2.0: the inner fluid is now given per capsule: set density_ratio in "
+                        "each [[capsule]] table"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\nviscosity_ratio = 1.0\n"),
+              HasSubstr("fluid.viscosity_ratio = 1.0: the inner fluid is now given per capsule: set viscosity_ratio "
+                        "in each [[capsule]] table"));
+  const CaseConfig c = parse_case_text(
+      std::string(kBase) + "[[capsule]]\nradius = 0.2\ncentre = [0,0,0]\nviscosity_ratio = 5\ndensity_ratio = 2\n",
+      "case.toml");
+  EXPECT_EQ(c.capsules[0].viscosity_ratio, 5.0);
+  EXPECT_EQ(c.capsules[0].density_ratio, 2.0);
 }
 
 TEST(io_case_errors, MissingBoundaryCondition) {

@@ -21,8 +21,6 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
 
   EXPECT_EQ(c.fluid.Re, 10.0);
   EXPECT_TRUE(c.fluid.stokes);
-  EXPECT_EQ(c.fluid.density_ratio, 1.0);  // the only accepted value for now
-  EXPECT_EQ(c.fluid.viscosity_ratio, 1.0);
   EXPECT_EQ(c.fluid.multigrid.tolerance, 1e-4);
   EXPECT_EQ(c.fluid.multigrid.max_cycles, 30);
   const auto& b = c.fluid.boundary;
@@ -61,6 +59,8 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
   EXPECT_EQ(k.inflation, 1.1);
   EXPECT_EQ(k.spread_kernel, KernelType::peskin4);
   EXPECT_EQ(k.interp_kernel, KernelType::cosine);
+  EXPECT_EQ(k.viscosity_ratio, 5.0);
+  EXPECT_EQ(k.density_ratio, 0.5);
   const CapsuleConfig& k2 = c.capsules[1];  // only radius, centre, shape, inflation given
   EXPECT_EQ(k2.shape, InitialShape::inflated);
   EXPECT_EQ(k2.inflation, 1.5);
@@ -68,6 +68,8 @@ TEST(io_case_parse, EveryKeyOfAFullCase) {
   EXPECT_EQ(k2.nodes, 2562);
   EXPECT_EQ(k2.spread_kernel, KernelType::cosine);
   EXPECT_EQ(k2.interp_kernel, KernelType::cosine);
+  EXPECT_EQ(k2.viscosity_ratio, 1.0);  // the same fluid inside
+  EXPECT_EQ(k2.density_ratio, 1.0);
 
   EXPECT_EQ(c.time.dt, 0.0005);
   EXPECT_EQ(c.time.t_end, 3.5);
@@ -96,8 +98,6 @@ TEST(io_case_parse, DefaultsFillEverythingNotGiven) {
   EXPECT_EQ(c.domain.root_size, 1.0);
   EXPECT_EQ(c.fluid.Re, 1.0);
   EXPECT_FALSE(c.fluid.stokes);
-  EXPECT_EQ(c.fluid.density_ratio, 1.0);
-  EXPECT_EQ(c.fluid.viscosity_ratio, 1.0);
   EXPECT_EQ(c.fluid.multigrid.tolerance, 1e-3);
   EXPECT_EQ(c.fluid.multigrid.max_cycles, 50);
   EXPECT_FALSE(c.fluid.crank_nicolson);

@@ -17,7 +17,8 @@
 #     the seed case's scheme (midpoint nodes,
 #     adaptations in time) write one rank's diagnostics, capsule rows and final nodes; a
 #     checkpoint written on 2 ranks restarts on 1 and 3 into the uninterrupted run; a capsule
-#     carried across ranks by an inflow changes owner and matches one rank; a capsule blowing
+#     carried across ranks by an inflow changes owner and matches one rank; an inner fluid of
+#     another viscosity and density matches one rank on 3; a capsule blowing
 #     up on one rank stops every rank with status 3 and one line; two and eight capsules in a
 #     periodic box on 4 ranks match one rank, a rank hearing of at most 4 of the 8.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
@@ -157,6 +158,9 @@ capsule_matches_one_rank() {
 quick=(run "$cases/relaxation_quick.toml" --set adapt.max_level=4 --set 'capsule[0].nodes=642' --set time.t_end=0.02
        --set output.diagnostics_interval=1 --set output.vtu=false --quiet)
 for n in 2 4; do capsule_matches_one_rank "quick-relaxation" "$n" "${quick[@]}"; done
+# An inner fluid (5 times as viscous, twice as dense): each rank cuts the capsules whose box
+# reaches its cells from the positions their owners send, in capsule order.
+capsule_matches_one_rank "inner-fluid" 3 "${quick[@]}" --set 'capsule[0].viscosity_ratio=5' --set 'capsule[0].density_ratio=2'
 # A capsule in a tube (embedded walls) on 3 ranks, within its kernels' reach of the wall: its
 # stencils there are renormalised over the open faces on every rank it is routed to.
 tube=(run "$cases/tube_capsule_stokes.toml" --set 'capsule[0].nodes=642' --set 'capsule[0].radius=0.6'
