@@ -158,7 +158,7 @@ FlowEnergy flow_energy(NavierStokes<D>& ns) {
     const std::span<const double> mu = t.values(ns.viscosity_field());
     std::vector<double> stress(static_cast<std::size_t>(t.num_cells()), 0.0);
     for (int i = 0; i < D; ++i) {
-      transpose_stress<D>(t, u, mu, ns.face_viscosities(), i, stress);
+      transpose_stress<D>(t, u, mu, ns.face_viscosities(), i, stress, &ns.varying_viscosity_leaves());
       e.dissipation -= detail::leaf_integral<D>(t, [&](Index c) { return u[i][c] * stress[c]; }).first;
     }
   }

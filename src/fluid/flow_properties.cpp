@@ -36,9 +36,9 @@ constexpr auto kCorner = [] {
 template <int D>
 void transpose_stress(const tree::Tree<D>& t, const std::array<std::span<const double>, D>& u,
                       std::span<const double> mu_cells, const std::vector<double>& mu_faces, int i,
-                      std::span<double> out) {
+                      std::span<double> out, const std::vector<std::pair<Index, int>>* only) {
   constexpr int F = 2 * D;
-  for_each_leaf_level<D>(t, [&](Index c, int l, double h) {
+  auto at = [&](Index c, int l, double h) {
     const tree::Level<D>& lv = t.level(l);
     const Index* row = lv.face_row(c);
     const double mu_c = mu_cells[c];
@@ -60,7 +60,37 @@ void transpose_stress(const tree::Tree<D>& t, const std::array<std::span<const d
         sum += s ? dmu * g : -dmu * g;
       }
     out[c] = sum / h;
-  });
+  };
+  if (!only) {
+    for_each_leaf_level<D>(t, at);
+    return;
+  }
+  const auto n = static_cast<std::int64_t>(only->size());
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+  for (std::int64_t k = 0; k < n; ++k) {
+    const auto [c, l] = (*only)[static_cast<std::size_t>(k)];
+    at(c, l, t.cell_size(l));
+  }
+}
+
+template <int D>
+std::vector<std::pair<Index, int>> varying_viscosity(const tree::Tree<D>& t, std::span<const double> mu_cells,
+                                                     const std::vector<double>& mu_faces) {
+  constexpr int F = 2 * D;
+  std::vector<std::pair<Index, int>> out;
+  for (int l = 0; l <= t.depth(); ++l) {
+    const tree::Level<D>& lv = t.level(l);
+    for (Index i = 0; i < lv.n_active; ++i) {
+      if (!lv.leaf[i]) continue;
+      const Index c = lv.base + i;
+      for (int k = 0; k < F; ++k)
+        if (mu_faces[static_cast<std::size_t>(c) * F + k] != mu_cells[c]) {
+          out.push_back({c, l});
+          break;
+        }
+    }
+  }
+  return out;
 }
 
 template <int D>
@@ -81,8 +111,9 @@ void NavierStokes<D>::update_properties() {
     std::array<std::span<double>, 2> both{rho, mu};
     tree_.update_ghosts(tree::Distribution::Fields(both.data(), both.size()));
   }
-  double rho_min = 1e300, mu_min = 1e300;
+  double rho_min = 1e300, mu_min = 1e300, rho_max = 0.0;
   for (const Index c : tree_.owned_leaves()) {
+    rho_max = std::max(rho_max, rho[c]);
     rho_min = std::min(rho_min, rho[c]);
     mu_min = std::min(mu_min, mu[c]);
   }
@@ -94,8 +125,11 @@ void NavierStokes<D>::update_properties() {
     throw std::invalid_argument(
         fmt::format("flow properties: min density {}, min viscosity {}: both must be > 0", rho_min, mu_min));
   rho_min_ = rho_min;
+  // One density everywhere (inner fluids of another viscosity only): the projection and the
+  // viscous solves keep their constant density terms, the cheaper operators.
+  uniform_density_ = tree_.global_max(rho_max) == rho_min;
   properties_stale_ = false;
-  face_coefficients<D>(tree_, rho, FaceMean::inverse_arithmetic, alpha_faces_);
+  if (!uniform_density_) face_coefficients<D>(tree_, rho, FaceMean::inverse_arithmetic, alpha_faces_);
   face_coefficients<D>(tree_, mu, FaceMean::harmonic, mu_faces_);
   // The explicit transpose stress, from the velocity at the start of the step (walls at
   // t^n): a steady state then satisfies the full discrete stress balance exactly.
@@ -104,7 +138,12 @@ void NavierStokes<D>::update_properties() {
     tree_.sync(tree_.values(u_[d]), conditions_.velocity[d], tree::Prolongation::quadratic);
     u[d] = tree_.values(u_[d]);
   }
-  for (int d = 0; d < D; ++d) transpose_stress<D>(tree_, u, mu, mu_faces_, d, transpose_[d]);
+  // Where the viscosity varies only (an inner fluid's membrane band); zero elsewhere.
+  varying_ = varying_viscosity<D>(tree_, mu, mu_faces_);
+  for (int d = 0; d < D; ++d) {
+    std::fill(transpose_[d].begin(), transpose_[d].end(), 0.0);
+    transpose_stress<D>(tree_, u, mu, mu_faces_, d, transpose_[d], &varying_);
+  }
 }
 
 template <int D>
@@ -119,27 +158,36 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
     lambda_[c] = -rho[c] / (theta * dt);
     rhs_[c] = lambda_[c] * u[c] - transpose[c] / theta;
   });
-  // The multigrid relaxes parents too: they take the volume mean of their children's
-  // (distributed: the ghosts' from their owners).
-  tree_.restrict_and_exchange(lambda_);
   if (theta < 1.0)  // explicit part at u^n (not u*: shift_by_g), walls at t^n
     subtract_explicit_half(d, dt, theta, EllipticOperator<D, FaceArray<D>>(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]));
-  EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {mu_faces_.data()}, {lambda_.data()},
-                                                  conditions_.velocity[d]);
   // The velocity tolerance in the residual's units, rho/(theta dt), with the smallest
   // density: a residual r moves a cell's velocity by about r theta dt / rho_c, so every cell
   // is then within the velocity tolerance (as the constant path, for constant rho).
   MultigridOptions opt = options_.viscous;
   opt.tolerance *= rho_min_ / (theta * dt);
+  if (uniform_density_) {
+    EllipticOperator<D, FaceArray<D>, ConstantCells> op(tree_, {mu_faces_.data()}, {-rho_min_ / (theta * dt)},
+                                                        conditions_.velocity[d]);
+    return solve(op, u, rhs_, mg_, opt);
+  }
+  // The multigrid relaxes parents too: they take the volume mean of their children's
+  // (distributed: the ghosts' from their owners).
+  tree_.restrict_and_exchange(lambda_);
+  EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {mu_faces_.data()}, {lambda_.data()},
+                                                  conditions_.velocity[d]);
   return solve(op, u, rhs_, mg_, opt);
 }
 
 template void transpose_stress<2>(const tree::Tree<2>&, const std::array<std::span<const double>, 2>&,
                                   std::span<const double>, const std::vector<double>&, int,
-                                  std::span<double>);
+                                  std::span<double>, const std::vector<std::pair<Index, int>>*);
+template std::vector<std::pair<Index, int>> varying_viscosity<2>(const tree::Tree<2>&, std::span<const double>,
+                                                                 const std::vector<double>&);
+template std::vector<std::pair<Index, int>> varying_viscosity<3>(const tree::Tree<3>&, std::span<const double>,
+                                                                 const std::vector<double>&);
 template void transpose_stress<3>(const tree::Tree<3>&, const std::array<std::span<const double>, 3>&,
                                   std::span<const double>, const std::vector<double>&, int,
-                                  std::span<double>);
+                                  std::span<double>, const std::vector<std::pair<Index, int>>*);
 template void NavierStokes<2>::set_properties(Properties);
 template void NavierStokes<3>::set_properties(Properties);
 template void NavierStokes<2>::update_properties();

@@ -23,6 +23,7 @@
 // velocities are only approximately solenoidal. The solver treats T explicitly.
 #include <array>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "fluid/faces.hpp"
@@ -43,9 +44,17 @@ double face_coefficient(const tree::Level<D>& lv, const std::vector<double>& coe
 
 // out = T_i (above) on the leaves. u: the D velocity components, synced (boundary cells, halos and
 // parents valid); mu_cells on the leaves; mu_faces from face_coefficients(.., harmonic).
+// With `only` (the leaves and their levels where mu varies: varying_viscosity), T_i on those
+// leaves alone; it is zero on the others, which are left as they are.
 template <int D>
 void transpose_stress(const tree::Tree<D>& t, const std::array<std::span<const double>, D>& u,
                       std::span<const double> mu_cells, const std::vector<double>& mu_faces, int i,
-                      std::span<double> out);
+                      std::span<double> out, const std::vector<std::pair<Index, int>>* only = nullptr);
+
+// The leaves (with their levels) where a face viscosity differs from the leaf's own: where
+// the transpose stress can be non-zero (an inner fluid's membrane band, not the whole flow).
+template <int D>
+std::vector<std::pair<Index, int>> varying_viscosity(const tree::Tree<D>& t, std::span<const double> mu_cells,
+                                                     const std::vector<double>& mu_faces);
 
 }  // namespace capsflow::fluid

@@ -116,14 +116,14 @@ void NavierStokes<D>::restore_leaf_faces(std::span<const double> values, bool cu
 template <int D>
 template <class Body>
 void NavierStokes<D>::with_inverse_density(Body&& body) const {
-  if (properties_) {
+  if (properties_ && !uniform_density_) {
     const std::vector<double>& a = alpha_faces_;
     auto alpha = [&a](int d, Index lo, Index hi, const tree::Level<D>& lv) {
       return face_coefficient<D>(lv, a, d, lo, hi);
     };
     body(alpha, FaceArray<D>{a.data()});
   } else {
-    const double inv_rho = 1.0 / options_.density;
+    const double inv_rho = 1.0 / (properties_ ? rho_min_ : options_.density);
     body([inv_rho](int, Index, Index, const tree::Level<D>&) { return inv_rho; }, ConstantFaces{inv_rho});
   }
 }

@@ -173,6 +173,9 @@ class NavierStokes {
   // With set_properties: the viscosity field and its face means (2D per cell slot).
   tree::FieldId viscosity_field() const { return mu_field_; }
   const std::vector<double>& face_viscosities() const { return mu_faces_; }
+  // With set_properties: the leaves (and levels) where a face viscosity differs from the
+  // leaf's, where the transpose stress lives (varying_viscosity).
+  const std::vector<std::pair<Index, int>>& varying_viscosity_leaves() const { return varying_; }
   // Embedded walls (issue "Walls of any shape"): the solid is no-slip fluid-free space. The
   // viscous and pressure operators take the fluid fractions and the walls' fluxes
   // (multigrid/wall_flux.hpp), the divergence is that of each cell's fluid part, faces
@@ -302,6 +305,8 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   double rho_min_ = 1.0;                        // scales the viscous tolerance
+  bool uniform_density_ = false;                // variable viscosity only
+  std::vector<std::pair<Index, int>> varying_;  // the leaves where mu varies (varying_viscosity)
   // Embedded walls (empty without): the geometry, its wall stencils, and the operators'
   // coefficients (2D per cell slot for faces, one per cell).
   geometry::SolidPtr solid_;

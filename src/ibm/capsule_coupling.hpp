@@ -176,9 +176,12 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[nodiscard]] bool any_inner_fluid() const;
   // The flow's density and viscosity on the leaves this rank owns, from the capsules' node
   // positions X:
-  //   rho = rho_out (1 + sum_k (r_k - 1) I_k),  mu = mu_out (1 + sum_k (lambda_k - 1) I_k),
+  //   rho = rho_out (1 + sum_k (r_k - 1) I_k),  1/mu = (1 + sum_k (1/lambda_k - 1) I_k) / mu_out,
   // I_k the inside of capsule k (indicator.hpp: its flat triangles, its spreading kernel's
-  // profile at the max level), added in capsule order. N ranks: each owner sends its
+  // profile at the max level), added in capsule order. The viscosity is the harmonic mean of
+  // the two fluids weighted by I: across a jump the two parts of a cell conduct the shear in
+  // series, and the harmonic cell mean is second order where the arithmetic one is first
+  // (fluid_tests FlowProperties.TwoLayerPoiseuilleOffFaceInterfaceHarmonicCellMeanSecondOrder). N ranks: each owner sends its
   // capsule's positions to the ranks that own cells within reach of its bounding box
   // (tree::box_owners), and each rank adds the capsules in id order: one rank's numbers to
   // the bit. The ghosts are left to the caller (NavierStokes exchanges them). Collective.

@@ -32,9 +32,10 @@ void CapsuleCoupling::inner_properties(double rho_out, double mu_out, std::span<
   const auto t0 = std::chrono::steady_clock::now();
   const tree::Tree<3>& t = ns_.tree();
   const int level = t.max_level();
+  // mu holds 1/mu until the end: the insides add to the inverse viscosity.
   t.for_each_owned_leaf([&](tree::Index c) {
     rho[static_cast<std::size_t>(c)] = rho_out;
-    mu[static_cast<std::size_t>(c)] = mu_out;
+    mu[static_cast<std::size_t>(c)] = 1.0 / mu_out;
   });
   // The capsules this rank cuts, in id order, with their positions.
   std::vector<std::pair<int, Eigen::Matrix3Xd>> cut;
@@ -80,11 +81,13 @@ void CapsuleCoupling::inner_properties(double rho_out, double mu_out, std::span<
     const InnerFluid& f = inner_[static_cast<std::size_t>(k)];
     const auto inside = inside_cells(t, x, *surfaces_[static_cast<std::size_t>(k)],
                                      kernels_[static_cast<std::size_t>(k)].spread, level);
+    const double inverse_step = (1.0 / f.viscosity_ratio - 1.0) / mu_out;
     for (const InsideCell& c : inside) {
       rho[static_cast<std::size_t>(c.cell)] += (f.density_ratio - 1.0) * rho_out * c.value;
-      mu[static_cast<std::size_t>(c.cell)] += (f.viscosity_ratio - 1.0) * mu_out * c.value;
+      mu[static_cast<std::size_t>(c.cell)] += inverse_step * c.value;
     }
   }
+  t.for_each_owned_leaf([&](tree::Index c) { mu[static_cast<std::size_t>(c)] = 1.0 / mu[static_cast<std::size_t>(c)]; });
   inside_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
