@@ -470,6 +470,13 @@ class FlowRun {
     for (int d = 0; d < D; ++d) u.push_back(tree_.values(ns_.velocity(d)));
     std::vector<io::CellField> fields{{"velocity", u}, {"pressure", {tree_.values(ns_.pressure())}}};
     if (ns_.embedded()) fields.push_back({"fluid_fraction", {ns_.embedded()->volume()}});
+    if (ns_.variable_properties()) {  // inner fluids: where the capsules' insides are, and what they make
+      ns_.refresh_properties();
+      fields.push_back({"viscosity", {tree_.values(ns_.viscosity_field())}});
+      fields.push_back({"density", {ns_.density()}});
+      if constexpr (D == 3)
+        if (capsules_) fields.push_back({"inside", {capsules_->coupling().inside()}});
+    }
     const std::string file = numbered("fluid", step, forest_ ? "pvtu" : "vtu");
     if (forest_) {
       io::write_tree_pvtu_piece<D>(out_ / file, tree_, fields, comm_.rank(), comm_.size());

@@ -186,6 +186,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // (tree::box_owners), and each rank adds the capsules in id order: one rank's numbers to
   // the bit. The ghosts are left to the caller (NavierStokes exchanges them). Collective.
   void inner_properties(double rho_out, double mu_out, std::span<double> rho, std::span<double> mu);
+  // sum_k I_k of the capsules with an inner fluid on the owned leaves, as the last
+  // inner_properties left it (sized to the tree then), for the snapshots.
+  [[nodiscard]] std::span<const double> inside() const { return inside_; }
   // Seconds spent in inner_properties since construction.
   [[nodiscard]] double inside_seconds() const { return inside_seconds_; }
 
@@ -374,6 +377,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // of one mesh, so that any rank can cut any capsule from its positions alone.
   std::vector<std::shared_ptr<const std::vector<std::array<int, 3>>>> surfaces_;
   double inside_seconds_ = 0.0;
+  std::vector<double> inside_;  // per cell: sum_k I_k (inner_properties)
   // N ranks: the plan of the distributed tree (nullptr on one rank), the capsules' rebuilder,
   // the nodes routed for this step's stages, and the bands of every capsule near this rank's
   // cells (built from the nodes routed at the last update_region).

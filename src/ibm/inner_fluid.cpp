@@ -32,6 +32,7 @@ void CapsuleCoupling::inner_properties(double rho_out, double mu_out, std::span<
   const auto t0 = std::chrono::steady_clock::now();
   const tree::Tree<3>& t = ns_.tree();
   const int level = t.max_level();
+  inside_.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
   // mu holds 1/mu until the end: the insides add to the inverse viscosity.
   t.for_each_owned_leaf([&](tree::Index c) {
     rho[static_cast<std::size_t>(c)] = rho_out;
@@ -85,6 +86,7 @@ void CapsuleCoupling::inner_properties(double rho_out, double mu_out, std::span<
     for (const InsideCell& c : inside) {
       rho[static_cast<std::size_t>(c.cell)] += (f.density_ratio - 1.0) * rho_out * c.value;
       mu[static_cast<std::size_t>(c.cell)] += inverse_step * c.value;
+      inside_[static_cast<std::size_t>(c.cell)] += c.value;
     }
   }
   t.for_each_owned_leaf([&](tree::Index c) { mu[static_cast<std::size_t>(c)] = 1.0 / mu[static_cast<std::size_t>(c)]; });
