@@ -138,6 +138,16 @@ void NavierStokes<D>::update_properties() {
     tree_.sync(tree_.values(u_[d]), conditions_.velocity[d], tree::Prolongation::quadratic);
     u[d] = tree_.values(u_[d]);
   }
+  // The cells whose every face has the constant viscosity of FlowOptions (outside the inner
+  // fluids): the viscous operator takes their stencil as constant (EmbeddedFaces).
+  const std::size_t slots = mu_faces_.size() / (2 * D);
+  mu_uniform_.assign(slots, 0);
+#pragma omp parallel for schedule(static)
+  for (std::size_t c = 0; c < slots; ++c) {
+    bool uniform = true;
+    for (int k = 0; k < 2 * D; ++k) uniform = uniform && mu_faces_[c * 2 * D + static_cast<std::size_t>(k)] == mu_;
+    mu_uniform_[c] = uniform ? 1 : 0;
+  }
   // Where the viscosity varies only (an inner fluid's membrane band); zero elsewhere.
   varying_ = varying_viscosity<D>(tree_, mu, mu_faces_);
   for (int d = 0; d < D; ++d) {
@@ -166,8 +176,9 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   MultigridOptions opt = options_.viscous;
   opt.tolerance *= rho_min_ / (theta * dt);
   if (uniform_density_) {
-    EllipticOperator<D, FaceArray<D>, ConstantCells> op(tree_, {mu_faces_.data()}, {-rho_min_ / (theta * dt)},
-                                                        conditions_.velocity[d]);
+    EllipticOperator<D, EmbeddedFaces<D>, ConstantCells> op(
+        tree_, {.value = mu_, .data = mu_faces_.data(), .full = mu_uniform_.data()}, {-rho_min_ / (theta * dt)},
+        conditions_.velocity[d]);
     return solve(op, u, rhs_, mg_, opt);
   }
   // The multigrid relaxes parents too: they take the volume mean of their children's

@@ -307,6 +307,7 @@ class NavierStokes {
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   bool uniform_density_ = false;                // variable viscosity only
   std::vector<std::pair<Index, int>> varying_;  // the leaves where mu varies (varying_viscosity)
+  std::vector<std::uint8_t> mu_uniform_;        // per cell slot: every face at the constant mu_
   // Embedded walls (empty without): the geometry, its wall stencils, and the operators'
   // coefficients (2D per cell slot for faces, one per cell).
   geometry::SolidPtr solid_;

@@ -39,6 +39,7 @@ struct ZeroCells {
 struct ConstantCells {
   static constexpr bool kConstant = true;
   double value = 0.0;
+  double uniform_value() const { return value; }
   double at(Index /*cell*/) const { return value; }
 };
 
