@@ -3,6 +3,7 @@
 #include "fluid/flow_properties.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -78,17 +79,20 @@ std::vector<std::pair<Index, int>> varying_viscosity(const tree::Tree<D>& t, std
                                                      const std::vector<double>& mu_faces) {
   constexpr int F = 2 * D;
   std::vector<std::pair<Index, int>> out;
+  std::vector<std::uint8_t> varies;
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
-    for (Index i = 0; i < lv.n_active; ++i) {
+    const Index n = lv.n_active;
+    varies.assign(static_cast<std::size_t>(n), 0);
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+    for (Index i = 0; i < n; ++i) {
       if (!lv.leaf[i]) continue;
       const Index c = lv.base + i;
       for (int k = 0; k < F; ++k)
-        if (mu_faces[static_cast<std::size_t>(c) * F + k] != mu_cells[c]) {
-          out.push_back({c, l});
-          break;
-        }
+        if (mu_faces[static_cast<std::size_t>(c) * F + k] != mu_cells[c]) varies[static_cast<std::size_t>(i)] = 1;
     }
+    for (Index i = 0; i < n; ++i)
+      if (varies[static_cast<std::size_t>(i)]) out.push_back({lv.base + i, l});
   }
   return out;
 }

@@ -58,7 +58,9 @@ void average_onto_parents(const tree::Tree<D>& t, std::vector<double>& out) {
   for (int l = top; l >= 0; --l) {
     if (l < t.depth()) {
       const tree::Level<D>& lv = t.level(l);
-      for (Index i = 0; i < lv.n_active; ++i) {
+      const Index n_active = lv.n_active;
+#pragma omp parallel for schedule(static) if (n_active > tree::kParallelMin)
+      for (Index i = 0; i < n_active; ++i) {
         if (lv.leaf[i]) continue;
         const Index c = lv.base + i, fc = lv.first_child[i];
         for (int k = 0; k < F; ++k) {
@@ -73,7 +75,9 @@ void average_onto_parents(const tree::Tree<D>& t, std::vector<double>& out) {
   }
   for (int l = 0; l < t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
-    for (Index i = 0; i < lv.n_active; ++i) {
+    const Index n_active = lv.n_active;
+#pragma omp parallel for schedule(static) if (n_active > tree::kParallelMin)
+    for (Index i = 0; i < n_active; ++i) {
       if (lv.leaf[i] != tree::Level<D>::kLeafNextToFiner) continue;
       const Index c = lv.base + i;
       for (int k = 0; k < F; ++k) {
@@ -123,7 +127,10 @@ void face_coefficients(const tree::Tree<D>& t, std::span<const double> cells, Fa
   constexpr int C = tree::kChildren<D>;
   CAPSFLOW_ASSERT(cells.size() == static_cast<std::size_t>(t.num_cells()),
                   "face_coefficients: the cell values do not have the tree's num_cells entries");
-  out.assign(static_cast<std::size_t>(t.num_cells()) * F, 0.0);
+  // Every leaf's and parent's faces are written below; the other slots (halos, boundary
+  // cells) hold zeros from the first call on a tree of this size (not read: refilled each
+  // step, the array is not cleared again, which cost a pass over 2D values per cell).
+  if (out.size() != static_cast<std::size_t>(t.num_cells()) * F) out.assign(static_cast<std::size_t>(t.num_cells()) * F, 0.0);
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const Index n_active = lv.n_active, base = lv.base;
