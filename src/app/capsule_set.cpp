@@ -130,13 +130,15 @@ CapsuleDiagnostics CapsuleSet::diagnostics(int k) const {
   const ibm::Capsule& c = coupling_->capsule(k);
   const auto s = membrane::shape_diagnostics(c.model.mesh(), c.x);
   const auto i = static_cast<std::size_t>(k);
+  const bool moved = c.velocity.cols() == c.x.cols();
   return {s.d12, s.d12_bbox, (s.area - reference_area_[i]) / reference_area_[i],
-          (s.volume - reference_volume_[i]) / reference_volume_[i], s.centroid};
+          (s.volume - reference_volume_[i]) / reference_volume_[i], s.centroid, membrane::inclination_xy(s),
+          moved ? membrane::tank_treading_rate(s, c.x, c.velocity) : 0.0};
 }
 
 std::vector<std::string> CapsuleSet::columns() {
   return {"step", "t", "capsule", "D12", "D12_bbox", "area_rel", "volume_rel", "x", "y", "z",
-          "E_membrane", "P_nodes", "W_membrane"};
+          "E_membrane", "P_nodes", "W_membrane", "inclination", "omega_z"};
 }
 
 std::vector<double> CapsuleSet::rows(long step, double t) const {
@@ -148,7 +150,7 @@ std::vector<double> CapsuleSet::rows(long step, double t) const {
       const double energy = coupling_->membrane_energy(k);
       mine.insert(mine.end(), {double(step), t, double(k), m.d12, m.d12_bbox, m.area_rel, m.volume_rel, m.centroid.x(),
                                m.centroid.y(), m.centroid.z(), energy, coupling_->node_power(k),
-                               coupling_->capsule(k).work});
+                               coupling_->capsule(k).work, m.inclination, m.omega_z});
     }
   });
   if (!comm_.distributed()) return mine;
@@ -172,7 +174,7 @@ std::vector<double> CapsuleSet::rows(long step, double t) const {
 }
 
 CapsuleDiagnostics CapsuleSet::from_row(std::span<const double> row) {
-  return {row[3], row[4], row[5], row[6], Eigen::Vector3d(row[7], row[8], row[9])};
+  return {row[3], row[4], row[5], row[6], Eigen::Vector3d(row[7], row[8], row[9]), row[13], row[14]};
 }
 
 void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries* series) const {

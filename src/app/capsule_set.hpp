@@ -18,6 +18,10 @@ namespace capsflow::app {
 struct CapsuleDiagnostics {
   double d12 = 0.0, d12_bbox = 0.0, area_rel = 0.0, volume_rel = 0.0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  // In a shear in the x-y plane (membrane/diagnostics.hpp): the inertia ellipsoid's
+  // inclination to x over pi, and the membrane's tank-treading rate about z (Keller-Skalak's
+  // phase rate; 0 before the first step).
+  double inclination = 0.0, omega_z = 0.0;
 };
 
 class CapsuleSet {
@@ -35,8 +39,9 @@ class CapsuleSet {
   // measure the run, not the mesh's approximation of 4 pi a^2); this rank must own it.
   CapsuleDiagnostics diagnostics(int k) const;
   // capsules.csv: one row per capsule and output step, in the order of columns(): its shape
-  // (as diagnostics()), centroid, and energy (membrane energy, node power F . V, the work
-  // of its membrane on the fluid since the run began; app/energy_budget.hpp).
+  // (as diagnostics()), centroid, energy (membrane energy, node power F . V, the work
+  // of its membrane on the fluid since the run began; app/energy_budget.hpp), then its
+  // inclination and rotation rate in the x-y plane.
   [[nodiscard]] static std::vector<std::string> columns();
   // The rows of every capsule, one after another in capsule order, on rank 0 (empty on the
   // others): each owner measures its capsules. Throws std::runtime_error (naming the step)

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -175,6 +176,35 @@ ShapeDiagnostics shape_diagnostics(const Mesh& mesh, const Eigen::Matrix3Xd& x) 
   d.d12 = (d.semi_axes[0] - d.semi_axes[2]) / (d.semi_axes[0] + d.semi_axes[2]);
   d.d12_bbox = bounding_box_d12(x);
   return d;
+}
+
+double inclination_xy(const ShapeDiagnostics& s) {
+  const Eigen::Vector3d a = s.axes.col(0);
+  double theta = std::atan2(a.y(), a.x()) / std::numbers::pi;  // (-1, 1]: an axis, not a direction
+  if (theta > 0.5) theta -= 1.0;
+  if (theta <= -0.5) theta += 1.0;
+  return theta;
+}
+
+double tank_treading_rate(const ShapeDiagnostics& s, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& v) {
+  if (x.cols() != v.cols() || x.cols() == 0)
+    throw std::invalid_argument("tank_treading_rate: positions and velocities differ in size");
+  // J = int (x - c)(x - c)^T dV from the stored tr(J) 1 - J.
+  const Eigen::Matrix3d j = 0.5 * s.inertia.trace() * Eigen::Matrix3d::Identity() - s.inertia;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(j.topLeftCorner<2, 2>());
+  const Eigen::Vector2d e1 = eig.eigenvectors().col(1), e2(-e1.y(), e1.x());  // e2 = z x e1
+  const double a = std::sqrt(std::max(eig.eigenvalues()[1], 0.0)), b = std::sqrt(std::max(eig.eigenvalues()[0], 0.0));
+  if (!(b > 0.0)) return 0.0;
+  const Eigen::Vector3d vc = v.rowwise().mean();
+  double moment = 0.0, norm = 0.0;
+  for (Eigen::Index i = 0; i < x.cols(); ++i) {
+    const Eigen::Vector2d r(x(0, i) - s.centroid.x(), x(1, i) - s.centroid.y());
+    const Eigen::Vector2d w(v(0, i) - vc.x(), v(1, i) - vc.y());
+    const double px = r.dot(e1) / a, py = r.dot(e2) / b, wx = w.dot(e1) / a, wy = w.dot(e2) / b;
+    moment += px * wy - py * wx;
+    norm += px * px + py * py;
+  }
+  return norm > 0.0 ? moment / norm : 0.0;
 }
 
 }  // namespace capsflow::membrane

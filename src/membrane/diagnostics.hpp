@@ -40,6 +40,19 @@ struct ShapeDiagnostics {
 [[nodiscard]] double surface_area(const Mesh& mesh, const Eigen::Matrix3Xd& x);
 [[nodiscard]] double enclosed_volume(const Mesh& mesh, const Eigen::Matrix3Xd& x);
 [[nodiscard]] double bounding_box_d12(const Eigen::Matrix3Xd& x);
+// In a shear flow u = (G y, 0, 0) (the x-y plane the shear plane, z the vorticity axis):
+// the inclination of the inertia ellipsoid's longest axis to x in that plane, in units of
+// pi, in (-1/2, 1/2] (Ramanujan & Pozrikidis 1998 and most of the capsule literature plot
+// theta / pi); and the membrane's tank-treading rate about z, the rate of the phase angle of
+// Keller & Skalak (J. Fluid Mech. 120, 1982): with the shear-plane ellipse of the inertia
+// ellipsoid (the x-y block of J: axes e1, e2 = z x e1, semi-axes a, b in the ratio of the
+// square roots of its eigenvalues), X = r.e1 / a and Y = r.e2 / b for each node (r, w its
+// position from the centroid and velocity relative to the nodes' mean),
+//   phi' = sum_i (X_i Y'_i - Y_i X'_i) / sum_i (X_i^2 + Y_i^2),
+// exact for their tank-treading field u = phi' (-(a/b) y, (b/a) x) on an ellipsoid and for a
+// rigid rotation of a sphere; 2 pi / phi' is the period of a membrane point's turn.
+[[nodiscard]] double inclination_xy(const ShapeDiagnostics& s);
+[[nodiscard]] double tank_treading_rate(const ShapeDiagnostics& s, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& v);
 // N_inf = max_i |x_i - y_i| (seed paper eq. 8); throws if the sizes differ.
 [[nodiscard]] double max_node_distance(const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& y);
 

@@ -170,6 +170,32 @@ TEST(membrane_diagnostics, SeedEllipsoidTaylorParameters) {
   }
 }
 
+// The seed ellipsoid turned by theta about z has its inclination theta / pi (an axis: theta
+// and theta + pi are one, so 0.7 pi reads -0.3). Keller & Skalak's tank-treading field on
+// it, u = w (-(a/b) y, (b/a) x, 0) in its own axes, plus any translation, has the phase rate
+// w exactly (the shape stays: u is tangent to the ellipsoid), and so has a sphere's rigid
+// rotation at rate w.
+TEST(membrane_diagnostics, InclinationAndTankTreadingRateInTheShearPlane) {
+  const Mesh mesh = make_icosphere({.order = Order::p2, .level = 3, .radius = a});
+  const Eigen::Matrix3Xd body = seed_ellipsoid(mesh.nodes, Eigen::Vector3d::Zero());  // semi-axes 2a, a/sqrt2, a/sqrt2
+  const double big = 2 * a, small = a / std::sqrt(2.0), w = 0.7;
+  for (const double theta : {0.0, 0.1, 0.25, 0.4, 0.7, -0.2}) {
+    const Eigen::Matrix3d r = Eigen::AngleAxisd(theta * pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3Xd x = (r * body).colwise() + Eigen::Vector3d(0.3, -0.2, 0.1);
+    Eigen::Matrix3Xd v(3, x.cols());
+    for (Eigen::Index i = 0; i < x.cols(); ++i)
+      v.col(i) = r * Eigen::Vector3d(-w * big / small * body(1, i), w * small / big * body(0, i), 0.0) +
+                 Eigen::Vector3d(1.0, 2.0, 3.0);
+    const ShapeDiagnostics d = shape_diagnostics(mesh, x);
+    EXPECT_NEAR(inclination_xy(d), theta > 0.5 ? theta - 1.0 : theta, 1e-12) << theta;
+    EXPECT_NEAR(tank_treading_rate(d, x, v), w, 1e-12) << theta;
+  }
+  const Eigen::Matrix3Xd sphere = mesh.nodes.colwise() + Eigen::Vector3d(0.5, 0.5, 0.5);
+  Eigen::Matrix3Xd v(3, sphere.cols());
+  for (Eigen::Index i = 0; i < sphere.cols(); ++i) v.col(i) = Eigen::Vector3d(-w * mesh.nodes(1, i), w * mesh.nodes(0, i), 0.0);
+  EXPECT_NEAR(tank_treading_rate(shape_diagnostics(mesh, sphere), sphere, v), w, 1e-12);
+}
+
 TEST(membrane_diagnostics, MaxNodeDistance) {
   const Mesh mesh = make_icosphere({.order = Order::p1, .level = 3});
   const Eigen::Vector3d shift(0.3, -0.4, 1.2);
