@@ -152,6 +152,25 @@ void NavierStokes<D>::update_properties() {
     for (int k = 0; k < 2 * D; ++k) uniform = uniform && mu_faces_[c * 2 * D + static_cast<std::size_t>(k)] == mu_;
     mu_uniform_[c] = uniform ? 1 : 0;
   }
+  if (embedded_) {
+    // Embedded walls: the fractions times the face viscosities (the fractions' arrays hold
+    // fraction * mu_), the cells uniform in both, and mu per cell slot for the walls' flux.
+    if (!uniform_density_)
+      throw std::invalid_argument("embedded walls with a density that varies: not implemented yet");
+    embedded_mu_faces_.resize(viscous_faces_.size());
+    embedded_mu_uniform_.assign(slots, 0);
+    const std::span<const std::uint8_t> open_uniform = embedded_->uniform();
+#pragma omp parallel for schedule(static)
+    for (std::size_t c = 0; c < slots; ++c) {
+      for (int k = 0; k < 2 * D; ++k) {
+        const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
+        embedded_mu_faces_[i] = viscous_faces_[i] * (mu_faces_[i] / mu_);
+      }
+      embedded_mu_uniform_[c] = (mu_uniform_[c] && c < open_uniform.size() && open_uniform[c]) ? 1 : 0;
+    }
+    cell_mu_.assign(mu.begin(), mu.end());
+    tree_.restrict_and_exchange(cell_mu_);
+  }
   // Where the viscosity varies only (an inner fluid's membrane band); zero elsewhere.
   varying_ = varying_viscosity<D>(tree_, mu, mu_faces_);
   for (int d = 0; d < D; ++d) {

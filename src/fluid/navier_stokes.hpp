@@ -315,6 +315,19 @@ class NavierStokes {
   std::unique_ptr<WallFlux<D>> wall_flux_;
   std::vector<double> pressure_faces_, pressure_pins_, viscous_faces_, viscous_cells_;
   double viscous_lambda_ = 0.0;  // the lambda viscous_cells_ was made for
+  // Embedded walls with a viscosity that varies (update_properties): the fractions times the
+  // face viscosities, the cells uniform in both, and mu per cell slot (parents: the mean).
+  std::vector<double> embedded_mu_faces_, cell_mu_;
+  std::vector<std::uint8_t> embedded_mu_uniform_;
+  // The embedded viscous operator's face coefficients, uniform cells and wall terms: the
+  // constant viscosity's, or the varying one's.
+  struct EmbeddedViscous {
+    const double* faces;
+    const std::uint8_t* uniform;
+    WallTerms<D> walls;
+    double wall_mu(Index c) const { return walls.at(c); }
+  };
+  EmbeddedViscous embedded_viscous() const;
   std::array<std::vector<double>, D> wall_velocity_;  // wall_velocity()
   bool faces_current_ = false;                  // face_velocity_current()
   bool faces_carried_ = false;                  // face_velocity_carried()

@@ -162,10 +162,10 @@ void NavierStokes<D>::embedded_viscous_source(int d, std::span<const double> u, 
                                              std::vector<double>& src) {
   // (mu/rho) times the embedded viscous operator (fractions, the walls' flux with a moving
   // wall's value), per unit of each cell's fluid part (at least kSmallCell of the cell).
-  const WallTerms<D> walls{wall_flux_.get(), mu_};
-  const std::uint8_t* uniform = embedded_->uniform().data();
+  const EmbeddedViscous v = embedded_viscous();
   const EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>> viscous(
-      tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls);
+      tree_, {mu_, v.faces, v.uniform}, {}, conditions_.velocity[d], v.walls);
+  const double* transpose = properties_ ? transpose_[d].data() : nullptr;
   viscous.apply_leaves(u, src);
   const std::span<const double> volume = embedded_->volume();
   tree_.for_each_owned_leaf([&](Index c) {
@@ -174,8 +174,8 @@ void NavierStokes<D>::embedded_viscous_source(int d, std::span<const double> u, 
       src[c] = 0.0;
       return;
     }
-    double s = src[c];
-    if (wall_flux_->cut(c)) s += mu_ * wall_flux_->wall(c) * wall_velocity(d, c);
+    double s = src[c] + (transpose ? fluid * transpose[c] : 0.0);
+    if (wall_flux_->cut(c)) s += v.wall_mu(c) * wall_flux_->wall(c) * wall_velocity(d, c);
     src[c] = g[c] + s / (options_.density * std::max(fluid, kSmallCell));
   });
 }

@@ -26,7 +26,6 @@ MultigridOptions with_krylov_on_growth(MultigridOptions o) {
 template <int D>
 void NavierStokes<D>::set_solid(geometry::SolidPtr solid) {
   if (!solid) throw std::invalid_argument("NavierStokes::set_solid: no solid");
-  if (properties_) throw std::invalid_argument("embedded walls with variable density or viscosity: not implemented yet");
   // The carried faces miss the walls (measured: half the drag of a cylinder array).
   if (options_.carry_faces) throw std::invalid_argument("embedded walls with carried faces (carry_faces): not implemented yet");
   solid_ = std::move(solid);
@@ -66,6 +65,13 @@ void NavierStokes<D>::rebuild_embedded() {
 }
 
 template <int D>
+typename NavierStokes<D>::EmbeddedViscous NavierStokes<D>::embedded_viscous() const {
+  if (properties_)
+    return {embedded_mu_faces_.data(), embedded_mu_uniform_.data(), WallTerms<D>{wall_flux_.get(), mu_, cell_mu_.data()}};
+  return {viscous_faces_.data(), embedded_->uniform().data(), WallTerms<D>{wall_flux_.get(), mu_}};
+}
+
+template <int D>
 MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double theta) {
   // As variable_viscous_solve, divided by theta, each cell's balance over its fluid part:
   //   div(mu fs grad u) + walls - cs rho/(theta dt) u = -cs rho/(theta dt) u* - (1-theta)/theta (...)(u^n).
@@ -76,13 +82,19 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
     viscous_lambda_ = lambda;
   }
   const std::span<const double> volume = embedded_->volume();
-  tree_.for_each_leaf([&](Index c) { rhs_[c] = lambda * volume[static_cast<std::size_t>(c)] * u[c]; });
-  const WallTerms<D> walls{wall_flux_.get(), mu_};
-  const std::uint8_t* uniform = embedded_->uniform().data();
+  // A viscosity that varies adds the transpose stress over each cell's fluid part.
+  const double* transpose = properties_ ? transpose_[d].data() : nullptr;
+  tree_.for_each_leaf([&](Index c) {
+    const double fluid = volume[static_cast<std::size_t>(c)];
+    rhs_[c] = lambda * fluid * u[c] - (transpose ? fluid * transpose[c] / theta : 0.0);
+  });
+  const EmbeddedViscous v = embedded_viscous();
+  const WallTerms<D>& walls = v.walls;
+  const std::uint8_t* uniform = v.uniform;
   if (theta < 1.0)
     subtract_explicit_half(d, dt, theta,
                            EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>>(
-                               tree_, {mu_, viscous_faces_.data(), uniform}, {}, conditions_.velocity[d], walls));
+                               tree_, {mu_, v.faces, uniform}, {}, conditions_.velocity[d], walls));
   // A moving wall's no-slip value: its part of the wall flux, mu wall(c) u_wall, at the new
   // time and (Crank-Nicolson) the old one, is a source: 1/theta of it, as the rest is divided.
   if (!wall_velocity_[d].empty())
@@ -90,10 +102,10 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
       const tree::Level<D>& lv = tree_.level(l);
       for (const Index c : wall_flux_->cut_cells(l))
         if (lv.is_leaf(c))
-          rhs_[c] -= mu_ * wall_flux_->wall(c) * wall_velocity(d, c) / theta;
+          rhs_[c] -= v.wall_mu(c) * wall_flux_->wall(c) * wall_velocity(d, c) / theta;
     }
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
-      tree_, {mu_, viscous_faces_.data(), uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);
+      tree_, {mu_, v.faces, uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);
   MultigridOptions opt = with_krylov_on_growth(options_.viscous);
   opt.tolerance *= options_.density / (theta * dt);
   // The cell term rho / (theta dt) holds the cells near the walls: the band passes bought
@@ -139,6 +151,8 @@ void NavierStokes<D>::embedded_centred_gradient(const FaceField<D>& gf, double d
 
 template void NavierStokes<2>::set_solid(geometry::SolidPtr);
 template void NavierStokes<3>::set_solid(geometry::SolidPtr);
+template NavierStokes<2>::EmbeddedViscous NavierStokes<2>::embedded_viscous() const;
+template NavierStokes<3>::EmbeddedViscous NavierStokes<3>::embedded_viscous() const;
 template void NavierStokes<2>::rebuild_embedded();
 template void NavierStokes<3>::rebuild_embedded();
 template MultigridStats NavierStokes<2>::embedded_viscous_solve(int, double, double);

@@ -18,7 +18,7 @@
 #     adaptations in time) write one rank's diagnostics, capsule rows and final nodes; a
 #     checkpoint written on 2 ranks restarts on 1 and 3 into the uninterrupted run; a capsule
 #     carried across ranks by an inflow changes owner and matches one rank; an inner fluid of
-#     another viscosity and density matches one rank on 3; a capsule blowing
+#     another viscosity and density, and one in the tube, match one rank on 3; a capsule blowing
 #     up on one rank stops every rank with status 3 and one line; two and eight capsules in a
 #     periodic box on 4 ranks match one rank, a rank hearing of at most 4 of the 8.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
@@ -166,6 +166,8 @@ capsule_matches_one_rank "inner-fluid" 3 "${quick[@]}" --set 'capsule[0].viscosi
 tube=(run "$cases/tube_capsule_stokes.toml" --set 'capsule[0].nodes=642' --set 'capsule[0].radius=0.6'
       --set time.t_end=0.006 --set output.diagnostics_interval=1 --set output.vtu=false --quiet)
 capsule_matches_one_rank "tube-capsule" 3 "${tube[@]}"
+# The same with an inner fluid 5 times as viscous: the walls' flux takes each cut cell's viscosity.
+capsule_matches_one_rank "tube-inner-fluid" 3 "${tube[@]}" --set 'capsule[0].viscosity_ratio=5'
 # The seed case's scheme (midpoint nodes, adaptations in time, faces carried through them).
 seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
       --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)

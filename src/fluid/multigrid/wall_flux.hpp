@@ -94,9 +94,11 @@ struct WallTerms {
   static constexpr bool kActive = true;
   const WallFlux<D>* flux = nullptr;
   double alpha = 1.0;
+  const double* cell_alpha = nullptr;  // per cell slot (a viscosity that varies), else alpha
   bool cut(Index c) const { return flux->cut(c); }
-  double self(Index c) const { return alpha * flux->self(c); }
-  double others(Index c, std::span<const double> a) const { return alpha * flux->others(c, a); }
+  double at(Index c) const { return cell_alpha ? cell_alpha[c] : alpha; }
+  double self(Index c) const { return at(c) * flux->self(c); }
+  double others(Index c, std::span<const double> a) const { return at(c) * flux->others(c, a); }
   // The part of L(a)_c that the walls add (homogeneous: a_wall is the right-hand side's).
   double term(Index c, std::span<const double> a) const { return self(c) * a[c] + others(c, a); }
 };
