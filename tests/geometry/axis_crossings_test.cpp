@@ -13,21 +13,13 @@
 #include "geometry/axis_crossings.hpp"
 #include "geometry/triangle_surface.hpp"
 #include "membrane/mesh.hpp"
+#include "test_meshes.hpp"
 
 namespace capsflow::geometry {
 namespace {
 
 using Eigen::Vector3d;
-
-TriangleMesh box_mesh(const Vector3d& lo, const Vector3d& hi) {
-  TriangleMesh m;
-  m.vertices.resize(3, 8);
-  for (int v = 0; v < 8; ++v)
-    m.vertices.col(v) = Vector3d((v & 1) ? hi[0] : lo[0], (v & 2) ? hi[1] : lo[1], (v & 4) ? hi[2] : lo[2]);
-  m.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                 {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-  return m;
-}
+using test::box_mesh;
 
 // Checks every line of a grid of spacing h over [-1, 1]^2 along each axis against the
 // surface's signed distance at the points (i + 1/2) h along it; returns the lines with

@@ -96,6 +96,12 @@ struct PeriodicBox {
   fluid::NavierStokes<3> ns;
 };
 
+// The same velocity u in every cell (leaves, parents, halos).
+inline void set_uniform_velocity(fluid::NavierStokes<3>& ns, const Eigen::Vector3d& u) {
+  for (Index c = 0; c < ns.tree().num_cells(); ++c)
+    for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+}
+
 // max |u| over the leaves.
 inline double max_velocity(fluid::NavierStokes<3>& ns) {
   double m = 0.0;

@@ -97,7 +97,6 @@ TEST(Coupling, PrestressedCapsuleAtRestBarelyMoves) {
 // to 1) and the flow stays uniform (the spread force is zero to round-off).
 TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
   test::PeriodicBox box(/*stokes=*/false);
-  tree::Tree<3>& t = box.tree;
   fluid::NavierStokes<3>& ns = box.ns;
   CapsuleCoupling cc(ns);
   fluid::Adaptation<3> adaptation(ns, {.enabled = true, .velocity_tolerance = 1e-2, .min_level = 2});
@@ -108,8 +107,7 @@ TEST(Coupling, UniformFlowCarriesCapsuleAcrossPeriodicSides) {
   cc.add_capsule(std::move(model), x0);
   (void)adaptation.refine_initial();
   const Eigen::Vector3d u(1.5, -0.5, 0.25);
-  for (Index c = 0; c < t.num_cells(); ++c)
-    for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+  test::set_uniform_velocity(ns, u);
   for (int k = 0; k < 60; ++k) {
     (void)cc.step();
     (void)adaptation.after_step(cc.steps());
@@ -243,7 +241,6 @@ TEST(Coupling, MidpointKeepsTheVolumeThroughAdaptations) {
 TEST(Coupling, AdaptationWaitsOnlyWhileNodesAreSlow) {
   for (const double speed : {0.0, 0.2, 3.2}) {
     test::PeriodicBox box(/*stokes=*/false);
-    tree::Tree<3>& t = box.tree;
     fluid::NavierStokes<3>& ns = box.ns;
     CapsuleCoupling cc(ns, /*margin=*/2);
     fluid::Adaptation<3> adaptation(
@@ -255,8 +252,7 @@ TEST(Coupling, AdaptationWaitsOnlyWhileNodesAreSlow) {
     cc.add_capsule(std::move(model), x0);
     (void)adaptation.refine_initial();
     const Eigen::Vector3d u = speed * Eigen::Vector3d(0.8, 0.6, 0.0);
-    for (Index c = 0; c < t.num_cells(); ++c)
-      for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+    test::set_uniform_velocity(ns, u);
     std::vector<int> adapted;
     for (int k = 1; k <= 24; ++k) {
       (void)cc.step();
@@ -494,8 +490,7 @@ TEST(Coupling, FastCapsuleKeepsItsBandWhateverTheAdaptationInterval) {
   cc.add_capsule(std::move(model), x0);
   (void)adaptation.refine_initial();
   const Eigen::Vector3d u(1.5, -0.5, 0.25);
-  for (Index c = 0; c < box.tree.num_cells(); ++c)
-    for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+  test::set_uniform_velocity(ns, u);
   for (int k = 0; k < 90; ++k) {
     (void)cc.step();
     (void)adaptation.after_step(cc.steps());

@@ -60,8 +60,7 @@ TEST(InnerFluid, UniformFlowCarriesAViscousDenseCapsuleUnchanged) {
   });
   (void)adaptation.refine_initial();
   const Eigen::Vector3d u(1.5, -0.5, 0.25);
-  for (Index c = 0; c < box.tree.num_cells(); ++c)
-    for (int d = 0; d < 3; ++d) ns.u(d)[c] = u[d];
+  test::set_uniform_velocity(ns, u);
   for (int k = 0; k < 60; ++k) {
     (void)cc.step();
     (void)adaptation.after_step(cc.steps());
