@@ -198,6 +198,9 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   // is then within the velocity tolerance (as the constant path, for constant rho).
   MultigridOptions opt = options_.viscous;
   opt.tolerance *= rho_min_ / (theta * dt);
+  // Where a jump makes plain cycles grow the residual, the first such cycle hands over to the
+  // Krylov iteration (as with embedded walls); converging cycles never see it.
+  opt.krylov_on_growth = true;
   if (uniform_density_) {
     EllipticOperator<D, EmbeddedFaces<D>, ConstantCells> op(
         tree_, {.value = mu_, .data = mu_faces_.data(), .full = mu_uniform_.data()}, {-rho_min_ / (theta * dt)},

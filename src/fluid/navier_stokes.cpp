@@ -306,6 +306,7 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
   std::span<double> pv = tree_.values(p);
   MultigridOptions scaled = opt;
   scaled.tolerance /= dt * dt;  // residual of div(alpha grad p) = div(uf)/dt
+  if (properties_ && !uniform_density_) scaled.krylov_on_growth = true;  // a density jump: as the viscous solves
   MultigridStats s;
   if (embedded_) {
     s = embedded_projection(uf, pv, dt, scaled);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "coupling_support.hpp"
@@ -80,7 +81,7 @@ struct Spurious {
   int most_cycles = 0;               // of a step's multigrid solves together
 };
 
-Spurious spurious_speed(double lambda) {
+Spurious spurious_speed(double lambda, double density_ratio = 1.0) {
   test::PeriodicBox box(/*stokes=*/true);
   fluid::NavierStokes<3>& ns = box.ns;
   CapsuleCoupling cc(ns);
@@ -90,8 +91,8 @@ Spurious spurious_speed(double lambda) {
                                 {.gs = shear_modulus(0.1, 1.0)});
   const Eigen::Matrix3Xd x0 = 1.05 * model.mesh().nodes;
   cc.add_capsule(std::move(model), x0);
-  cc.set_inner_fluid(0, {.viscosity_ratio = lambda});
-  if (lambda != 1.0)
+  cc.set_inner_fluid(0, {.viscosity_ratio = lambda, .density_ratio = density_ratio});
+  if (lambda != 1.0 || density_ratio != 1.0)
     ns.set_properties([&cc](const tree::Tree<3>&, std::span<double> rho, std::span<double> mu) {
       cc.inner_properties(1.0, 1.0, rho, mu);
     });
@@ -106,9 +107,9 @@ Spurious spurious_speed(double lambda) {
     s.fastest = std::max(s.fastest, s.last);
   }
   const double drift = membrane::max_node_distance(cc.capsule(0).x, x0);
-  std::printf("inflated capsule at rest, lambda %g: max |u| %.3e over 40 steps, %.3e at the last, nodes moved %.3e, "
+  std::printf("inflated capsule at rest, lambda %g, density ratio %g: max |u| %.3e over 40 steps, %.3e at the last, nodes moved %.3e, "
               "at most %d cycles a step\n",
-              lambda, s.fastest, s.last, drift, s.most_cycles);
+              lambda, density_ratio, s.fastest, s.last, drift, s.most_cycles);
   return s;
 }
 
@@ -118,14 +119,14 @@ TEST(InnerFluid, AnInflatedCapsuleWithAViscousInsideStaysAtRest) {
   EXPECT_LT(viscous.last, 1.5 * same.last);
 }
 
-// The range of viscosity ratios, 0.01 to 100: every solve converges, within a few
-// cycles more than with one fluid.
-TEST(InnerFluid, ViscosityRatiosFromAHundredthToAHundredConverge) {
+// The range of viscosity ratios, 0.01 to 100, and densities as far apart: every
+// solve converges, within a few cycles more than with one fluid.
+TEST(InnerFluid, RatiosFromAHundredthToAHundredConverge) {
   const int same = spurious_speed(1.0).most_cycles;
-  for (const double lambda : {0.01, 100.0}) {
-    const Spurious s = spurious_speed(lambda);
-    EXPECT_LE(s.most_cycles, 3 * same + 6) << lambda;
-    EXPECT_LT(s.fastest, 1e-2) << lambda;
+  for (const auto [lambda, density] : {std::pair{0.01, 1.0}, std::pair{100.0, 1.0}, std::pair{1.0, 0.01}, std::pair{1.0, 100.0}}) {
+    const Spurious s = spurious_speed(lambda, density);
+    EXPECT_LE(s.most_cycles, 3 * same + 6) << lambda << " " << density;
+    EXPECT_LT(s.fastest, 1e-2) << lambda << " " << density;
   }
 }
 
