@@ -374,6 +374,22 @@ TEST(AppCapsule, RestartBetweenAdaptationsRepeatsTheRunExactly) {
   expect_restart_repeats_run(dir, base, "checkpoint_000004.h5", full);
 }
 
+// Issue 29: an inner fluid's properties come from the node positions at each step's start,
+// which the checkpoint keeps: a restart between adaptations repeats the run to the last digit.
+TEST(AppCapsule, InnerFluidRestartsExactly) {
+  const fs::path dir = scratch("capsule_inner_fluid");
+  const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                           "--set capsule[0].viscosity_ratio=5 --set capsule[0].density_ratio=2 "
+                           "--set time.t_end=0.02 --set output.vtu=false --set output.diagnostics_interval=1 "
+                           "--set output.checkpoint=true --set output.checkpoint_interval=7 ";
+  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
+  ASSERT_EQ(full.size(), 21u);
+  expect_restart_repeats_run(dir, base, "checkpoint_000007.h5", full);
+}
+
 // Issue 17: the second-order scheme (midpoint nodes, Crank-Nicolson, carried faces) starts
 // each step from the last projected faces; the checkpoint keeps them (face_velocity), so a
 // restart repeats the run to the last digit: from step 4 (faces current) and from step 3
