@@ -324,8 +324,7 @@ class NavierStokes {
   struct EmbeddedViscous {
     const double* faces;
     const std::uint8_t* uniform;
-    WallTerms<D> walls;
-    double wall_mu(Index c) const { return walls.at(c); }
+    WallTerms<D> walls;  // walls.at(c): the cut cell's viscosity
   };
   EmbeddedViscous embedded_viscous() const;
   std::array<std::vector<double>, D> wall_velocity_;  // wall_velocity()

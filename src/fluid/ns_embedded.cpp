@@ -102,7 +102,7 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
       const tree::Level<D>& lv = tree_.level(l);
       for (const Index c : wall_flux_->cut_cells(l))
         if (lv.is_leaf(c))
-          rhs_[c] -= v.wall_mu(c) * wall_flux_->wall(c) * wall_velocity(d, c) / theta;
+          rhs_[c] -= v.walls.at(c) * wall_flux_->wall(c) * wall_velocity(d, c) / theta;
     }
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
       tree_, {mu_, v.faces, uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);

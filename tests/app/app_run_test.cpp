@@ -128,6 +128,17 @@ void expect_restart_repeats_run(const fs::path& dir, const std::string& base, co
   EXPECT_EQ(slurp(dir / "part" / "capsules.csv"), slurp(dir / "full" / "capsules.csv"));  // both empty without capsules
 }
 
+// Runs `base` whole into dir/full (it must write `rows` diagnostics rows, the header
+// included), then restarts it from `checkpoint` (expect_restart_repeats_run).
+void expect_run_restarts_exactly(const fs::path& dir, const std::string& base, std::size_t rows,
+                                 const std::string& checkpoint) {
+  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
+  ASSERT_EQ(full.size(), rows);
+  expect_restart_repeats_run(dir, base, checkpoint, full);
+}
+
 
 // Interrupted after a checkpoint and restarted, a run writes the same diagnostics, to the
 // last digit (wall time aside), as the run that went straight through.
@@ -367,11 +378,7 @@ TEST(AppCapsule, RestartBetweenAdaptationsRepeatsTheRunExactly) {
                            "--set time.t_end=0.04 --set output.vtu=false --set output.diagnostics_interval=1 "
                            "--set output.checkpoint=true --set output.checkpoint_interval=4 "
                            "--set adapt.interval=3 --set adapt.membrane_band=8 ";
-  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
-  ASSERT_EQ(r.status, 0) << r.err;
-  const auto full = rows_of(dir / "full" / "diagnostics.csv");
-  ASSERT_EQ(full.size(), 11u);
-  expect_restart_repeats_run(dir, base, "checkpoint_000004.h5", full);
+  expect_run_restarts_exactly(dir, base, 11, "checkpoint_000004.h5");
 }
 
 // Issue 29: an inner fluid's properties come from the node positions at each step's start,
@@ -383,11 +390,7 @@ TEST(AppCapsule, InnerFluidRestartsExactly) {
                            "--set capsule[0].viscosity_ratio=5 --set capsule[0].density_ratio=2 "
                            "--set time.t_end=0.02 --set output.vtu=false --set output.diagnostics_interval=1 "
                            "--set output.checkpoint=true --set output.checkpoint_interval=7 ";
-  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
-  ASSERT_EQ(r.status, 0) << r.err;
-  const auto full = rows_of(dir / "full" / "diagnostics.csv");
-  ASSERT_EQ(full.size(), 21u);
-  expect_restart_repeats_run(dir, base, "checkpoint_000007.h5", full);
+  expect_run_restarts_exactly(dir, base, 21, "checkpoint_000007.h5");
 }
 
 // Issue 17: the second-order scheme (midpoint nodes, Crank-Nicolson, carried faces) starts
@@ -404,11 +407,7 @@ TEST(AppCapsule, SecondOrderSchemeRestartsExactly) {
         "--set output.checkpoint=true --set adapt.interval=3 --set adapt.membrane_band=8 "
         "--set time.node_scheme=\"midpoint\" --set fluid.crank_nicolson=true --set fluid.carry_faces=true " +
         fmt::format("--set output.checkpoint_interval={} ", at);
-    const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
-    ASSERT_EQ(r.status, 0) << r.err;
-    const auto full = rows_of(dir / "full" / "diagnostics.csv");
-    ASSERT_EQ(full.size(), 11u);
-    expect_restart_repeats_run(dir, base, fmt::format("checkpoint_{:06d}.h5", at), full);
+    expect_run_restarts_exactly(dir, base, 11, fmt::format("checkpoint_{:06d}.h5", at));
   }
 }
 
