@@ -2,11 +2,12 @@
 // The inside of a closed membrane on the tree (issue 29): I at a leaf's centre is
 //   I = C(-d / h),
 // with d the signed distance of the centre to the membrane (> 0 outside), h the cell size of
-// the level the forces are spread at and C the cumulative integral of the spreading kernel's
-// 1D weight (kernels.hpp): exactly 0 or 1 beyond the kernel's half support (2h for the
-// cosine kernel) from the membrane, and across it the profile that the kernel smoothing
-// the sharp inside would give at a plane wall; the inside's integral then converges to the
-// enclosed volume at second order in h.
+// the level the forces are spread at and C the cumulative integral of a kernel's 1D weight
+// (kernels.hpp; the capsules' inner fluid takes the hat's, CapsuleCoupling::kInsideProfile):
+// exactly 0 or 1 beyond the kernel's half support (h for the hat, 2h for the cosine kernel)
+// from the membrane, and across it the profile that the kernel smoothing the sharp inside
+// would give at a plane wall; the inside's integral then converges to the enclosed volume at
+// second order in h.
 //
 // The membrane is cut as its flat triangles (membrane::flat_triangles). Whether a centre lies
 // inside is the winding number along the grid line through it (geometry/axis_crossings.hpp:

@@ -53,7 +53,7 @@ void CapsuleCoupling::inner_properties(double rho_out, double mu_out, std::span<
       if (!owns(k) || inner_[static_cast<std::size_t>(k)].same()) continue;
       const Eigen::Matrix3Xd& x = capsule(k).x;
       // The max-level cells within the inside's reach (and one more) of the bounding box.
-      const double reach = (0.5 * support_of(kernels_[static_cast<std::size_t>(k)].spread) + 1.0) * h;
+      const double reach = (0.5 * support_of(kInsideProfile) + 1.0) * h;
       tree::Coords<3> lo{}, hi{};
       for (int d = 0; d < 3; ++d) {
         lo[d] = static_cast<std::int32_t>(std::floor((x.row(d).minCoeff() - reach - o.origin[static_cast<std::size_t>(d)]) / h));
@@ -80,8 +80,7 @@ void CapsuleCoupling::inner_properties(double rho_out, double mu_out, std::span<
   }
   for (const auto& [k, x] : cut) {
     const InnerFluid& f = inner_[static_cast<std::size_t>(k)];
-    const auto inside = inside_cells(t, x, *surfaces_[static_cast<std::size_t>(k)],
-                                     kernels_[static_cast<std::size_t>(k)].spread, level);
+    const auto inside = inside_cells(t, x, *surfaces_[static_cast<std::size_t>(k)], kInsideProfile, level);
     const double inverse_step = (1.0 / f.viscosity_ratio - 1.0) / mu_out;
     for (const InsideCell& c : inside) {
       rho[static_cast<std::size_t>(c.cell)] += (f.density_ratio - 1.0) * rho_out * c.value;

@@ -37,7 +37,9 @@ TEST(InnerFluid, PropertiesFollowTheInsideOfTheMembrane) {
   const auto& c = s.coupling->capsule(0);
   const double volume = membrane::enclosed_volume(c.model.mesh(), c.x);  // curved P2
   std::printf("inside's integral %.5f, enclosed volume %.5f\n", inside_mu, volume);
-  EXPECT_NEAR(inside_mu, volume, 0.02 * volume);
+  // 0.12% with the hat kernel's profile (CapsuleCoupling::kInsideProfile; the cosine kernel's
+  // wider one gave 0.9%).
+  EXPECT_NEAR(inside_mu, volume, 0.005 * volume);
   EXPECT_DOUBLE_EQ(mu[static_cast<std::size_t>(t.locate({0.0, 0.0, 0.0}))], 1.25);
   EXPECT_EQ(rho[static_cast<std::size_t>(t.locate({0.0, 0.0, 0.0}))], 3.0);
   EXPECT_DOUBLE_EQ(mu[static_cast<std::size_t>(t.locate({2.0, 0.5, 0.5}))], 0.25);
@@ -123,7 +125,7 @@ TEST(InnerFluid, AnInflatedCapsuleWithAViscousInsideStaysAtRest) {
 // solve converges, within a few cycles more than with one fluid.
 TEST(InnerFluid, RatiosFromAHundredthToAHundredConverge) {
   const int same = spurious_speed(1.0).most_cycles;
-  for (const auto [lambda, density] : {std::pair{0.01, 1.0}, std::pair{100.0, 1.0}, std::pair{1.0, 0.01}, std::pair{1.0, 100.0}}) {
+  for (const auto& [lambda, density] : {std::pair{0.01, 1.0}, std::pair{100.0, 1.0}, std::pair{1.0, 0.01}, std::pair{1.0, 100.0}}) {
     const Spurious s = spurious_speed(lambda, density);
     EXPECT_LE(s.most_cycles, 3 * same + 6) << lambda << " " << density;
     EXPECT_LT(s.fastest, 1e-2) << lambda << " " << density;
