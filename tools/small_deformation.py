@@ -28,6 +28,7 @@ import csv
 import math
 import subprocess
 import sys
+import tomllib
 
 import numpy as np
 
@@ -82,6 +83,12 @@ def run(capsflow, case, out, sets):
         sys.exit(f"small_deformation: {' '.join(cmd)} exited with {result.returncode}")
 
 
+def run_lambda(args, lam, sets):
+    out = f"{args.out}/lambda_{lam:g}"
+    run(args.capsflow, args.case, out, sets + [f"capsule[0].viscosity_ratio={lam}"])
+    return out, read_capsule(out)
+
+
 def print_theory():
     print("relaxation, kappa = 3: rates of the two l = 2 modes in G/(mu a), and D12/D12(0)")
     for lam in (0.01, 0.2, 1.0, 5.0, 100.0):
@@ -99,11 +106,10 @@ def check_relaxation(args, lambdas, sets):
     print(f"{'lambda':>7s} {'rate run':>9s} {'rate theory':>11s} {'error':>7s} {'1-D/D0 run':>11s} {'theory':>7s} "
           f"{'at t = 1':>9s} {'theory':>7s} {'max |D/D0 - theory|':>20s}")
     for lam in lambdas:
-        out = f"{args.out}/lambda_{lam:g}"
-        run(args.capsflow, args.case, out, sets + [f"capsule[0].viscosity_ratio={lam}"])
-        c = read_capsule(out)
+        out, c = run_lambda(args, lam, sets)
         # D12 at t = 0 of the stretched sphere, from the case's axes (written to case.toml).
-        d0 = initial_d12(out)
+        axes = sorted(written_capsule(out)["axes_factors"])
+        d0 = (axes[2] - axes[0]) / (axes[2] + axes[0])
         ratio = c["D12"] / d0
         theory = relaxation_curve(lam, c["t"])
         # The fitted rate over t >= 1 (mu a / G units, Ca = 1): the fast mode has then decayed
@@ -117,23 +123,13 @@ def check_relaxation(args, lambdas, sets):
     return worst
 
 
-def initial_d12(out):
-    import tomllib
-    with open(f"{out}/case.toml", "rb") as f:
-        cap = tomllib.load(f)["capsule"][0]
-    axes = sorted(cap["axes_factors"])
-    return (axes[2] - axes[0]) / (axes[2] + axes[0])
-
-
 def check_shear(args, lambdas, sets):
     worst = 0.0
     print(f"{'lambda':>7s} {'Ca':>6s} {'D12/Ca':>8s} {'theory':>7s} {'error':>7s} "
           f"{'c run':>7s} {'c theory':>8s} {'error':>7s} {'omega_z':>8s}")
     for lam in lambdas:
-        out = f"{args.out}/lambda_{lam:g}"
-        run(args.capsflow, args.case, out, sets + [f"capsule[0].viscosity_ratio={lam}"])
-        c = read_capsule(out)
-        ca = capsule_ca(out)
+        out, c = run_lambda(args, lam, sets)
+        ca = float(written_capsule(out)["Ca"])
         late = c["t"] >= c["t"][-1] - 1.0  # the last unit of strain: steady
         d, theta, omega = (float(np.mean(c[k][late])) for k in ("D12", "inclination", "omega_z"))
         slope_run = (0.25 - theta) * math.pi / ca
@@ -145,10 +141,10 @@ def check_shear(args, lambdas, sets):
     return worst
 
 
-def capsule_ca(out):
-    import tomllib
+def written_capsule(out):
+    """The first capsule of the case as the run wrote it (with the --set overrides)."""
     with open(f"{out}/case.toml", "rb") as f:
-        return float(tomllib.load(f)["capsule"][0]["Ca"])
+        return tomllib.load(f)["capsule"][0]
 
 
 def main():
