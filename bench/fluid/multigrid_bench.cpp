@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "baseline.hpp"
+#include "fluid/multigrid/coefficients.hpp"
 #include "fluid/multigrid/elliptic_operator.hpp"
 #include "fluid/multigrid/multigrid.hpp"
 #include "seed_channel.hpp"
@@ -130,5 +131,68 @@ void BM_MultigridSeedShell(benchmark::State& state) {
   run(state, t);
 }
 BENCHMARK(BM_MultigridSeedShell)->Name("multigrid/poisson_seed_shell")->Unit(benchmark::kMillisecond)->MinTime(1.0);
+
+// The viscous solve of an inner fluid (NavierStokes::set_properties) against the constant
+// one, on the seed shell tree: a Helmholtz operator rho/dt - div(mu grad) (seed units: mu = 1,
+// rho/dt = 1000), six V-cycles from zero, with the face viscosities as a constant
+// (ConstantFaces, the lambda = 1 path), as arrays that hold the constant everywhere
+// (EmbeddedFaces, every cell of the uniform class: the variable path's own cost) and as the
+// harmonic means of a sphere of radius 0.85 five times as viscous (lambda = 5: the cells
+// whose faces all hold 1 take the constant stencil, the others read the arrays). Reported:
+// ms per cycle of each and their ratios to the constant one, measured in the same run.
+void BM_ViscousVariableAgainstConstant(benchmark::State& state) {
+  const tree::Tree<3> t = seed_shell_tree();
+  const auto bc = tree::BoundaryConditions<3>::all(tree::BcKind::dirichlet);
+  const double mu = 1.0, lambda = -1000.0;
+  const auto n = static_cast<std::size_t>(t.num_cells());
+  std::vector<double> mu_cells(n, mu), inside(n, mu);
+  for (const auto c : t.leaves()) {
+    const tree::Point<3> x = t.center(c);
+    if (std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) < bench::kSeedRadius) inside[c] = 5.0 * mu;
+  }
+  std::vector<double> uniform_faces, sphere_faces;
+  fluid::face_coefficients<3>(t, mu_cells, fluid::FaceMean::harmonic, uniform_faces);
+  fluid::face_coefficients<3>(t, inside, fluid::FaceMean::harmonic, sphere_faces);
+  auto uniform_of = [&](const std::vector<double>& faces) {
+    std::vector<std::uint8_t> full(n, 0);
+    for (std::size_t c = 0; c < n; ++c)
+      full[c] = std::all_of(faces.begin() + static_cast<std::ptrdiff_t>(6 * c), faces.begin() + static_cast<std::ptrdiff_t>(6 * c + 6),
+                            [mu](double f) { return f == mu; });
+    return full;
+  };
+  const std::vector<std::uint8_t> all_uniform = uniform_of(uniform_faces), sphere_uniform = uniform_of(sphere_faces);
+  std::vector<double> a(n, 0.0), b(n, 0.0);
+  for (const auto c : t.leaves()) b[c] = source(t.center(c), t.options());
+  fluid::MultigridWorkspace ws;
+  const MultigridOptions six{.tolerance = 0.0, .min_cycles = 6, .max_cycles = 6, .warm_start = false};
+  auto per_cycle = [&](const auto& op) {
+    const auto t0 = std::chrono::steady_clock::now();
+    (void)fluid::solve(op, a, b, ws, six);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 6.0;
+  };
+  const fluid::EllipticOperator<3, fluid::ConstantFaces, fluid::ConstantCells> constant(t, {mu}, {lambda}, bc);
+  const fluid::EllipticOperator<3, fluid::EmbeddedFaces<3>, fluid::ConstantCells> arrays(
+      t, {.value = mu, .data = uniform_faces.data(), .full = all_uniform.data()}, {lambda}, bc);
+  const fluid::EllipticOperator<3, fluid::EmbeddedFaces<3>, fluid::ConstantCells> sphere(
+      t, {.value = mu, .data = sphere_faces.data(), .full = sphere_uniform.data()}, {lambda}, bc);
+  double c_s = 0.0, a_s = 0.0, s_s = 0.0;
+  std::int64_t runs = 0;
+  for (auto _ : state) {
+    c_s += per_cycle(constant);
+    a_s += per_cycle(arrays);
+    s_s += per_cycle(sphere);
+    ++runs;
+  }
+  const auto count = static_cast<double>(runs);
+  state.counters["leaves"] = t.num_leaves();
+  state.counters["uniform_share_sphere"] =
+      static_cast<double>(std::count(sphere_uniform.begin(), sphere_uniform.end(), 1)) / static_cast<double>(n);
+  state.counters["constant_ms"] = c_s / count * 1e3;
+  state.counters["arrays_ms"] = a_s / count * 1e3;
+  state.counters["sphere_ms"] = s_s / count * 1e3;
+  state.counters["arrays_over_constant"] = a_s / c_s;
+  state.counters["sphere_over_constant"] = s_s / c_s;
+}
+BENCHMARK(BM_ViscousVariableAgainstConstant)->Name("multigrid/viscous_variable_vs_constant")->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 }  // namespace
