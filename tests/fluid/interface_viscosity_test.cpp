@@ -12,8 +12,8 @@
 #include <span>
 #include <vector>
 
-#include "fluid/navier_stokes.hpp"
 #include "flow_sides.hpp"
+#include "fluid/navier_stokes.hpp"
 
 namespace capsflow::fluid {
 namespace {
@@ -93,9 +93,10 @@ struct LayerErrors {
 // The steady flow at `level` with viscosities mu1 below y0 and mu2 above, the cut row's cells
 // taking the harmonic mean of the sharp profile over the cell (an inner fluid's inside takes
 // the harmonic mean of its smoothed one). Stokes, stepped from rest until the velocity stops
-// changing (the transpose stress is explicit). dt = 1e-4: the projection is approximate (cell velocities are not exactly
-// solenoidal), so the steady state depends on dt; its share falls with dt (at level 6 with
-// the jump, L1 1.76e-3, 1.44e-3 and 1.48e-3 at dt = 1e-3, 3e-4 and 1e-4).
+// changing (the transpose stress is explicit). dt = 1e-4: the projection is approximate (cell
+// velocities are not exactly solenoidal), so the steady state depends on dt; its share falls
+// with dt (at level 6 with the jump, L1 1.76e-3, 1.44e-3 and 1.48e-3 at dt = 1e-3, 3e-4 and
+// 1e-4).
 LayerErrors lid_errors(int level, double mu2) {
   LidModes m;
   m.mu2 = mu2;
@@ -124,7 +125,8 @@ LayerErrors lid_errors(int level, double mu2) {
     for (const auto c : t.leaves()) before[static_cast<std::size_t>(c)] = ns.u(0)[c];
     EXPECT_TRUE(ns.step().converged);
     change = 0.0;
-    for (const auto c : t.leaves()) change = std::max(change, std::abs(ns.u(0)[c] - before[static_cast<std::size_t>(c)]));
+    for (const auto c : t.leaves())
+      change = std::max(change, std::abs(ns.u(0)[c] - before[static_cast<std::size_t>(c)]));
   }
   EXPECT_LE(change, 1e-12) << "level " << level << ": not steady";
   LayerErrors e;
@@ -155,8 +157,10 @@ TEST(InterfaceViscosity, TwoLayerLidDrivenModeFirstOrderWhereTheInterfaceStretch
     const LayerErrors u = lid_errors(level, 1.0), j = lid_errors(level, 4.0);
     uniform.push_back(u.l1);
     jump.push_back(j.l1);
-    std::printf("two-layer lid mode, y0 = 0.4, level %d: mu 1:1 L1 %.3e, uncut max %.3e; mu 1:4 L1 %.3e, uncut max %.3e\n",
-                level, u.l1, u.uncut, j.l1, j.uncut);
+    std::printf(
+        "two-layer lid mode, y0 = 0.4, level %d: mu 1:1 L1 %.3e, uncut max %.3e; mu 1:4 L1 %.3e, uncut max "
+        "%.3e\n",
+        level, u.l1, u.uncut, j.l1, j.uncut);
   }
   testing::expect_orders_at_least("one viscosity, L1", uniform, 1.85);
   EXPECT_GT(std::log2(jump[1] / jump[3]) / 2.0, 1.0);
