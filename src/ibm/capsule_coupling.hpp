@@ -189,7 +189,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // The inside's profile across the membrane: the hat kernel's, a transition of 2h, whatever
   // kernel spreads the forces. The cosine kernel's 4h smears the viscosity jump over half a
   // radius at dx = a/8: a capsule with lambda = 5 then relaxes 26% too fast at t = mu a / G
-  // against the small-deformation theory, 9% with the hat's (docs/numerics.md).
+  // against the small-deformation theory, 9% with the hat's at dt = 5e-4 (docs/numerics.md:
+  // part of that agreement is the explicit coupling's time-step error).
   static constexpr KernelKind kInsideProfile = KernelKind::hat;
   // sum_k I_k of the capsules with an inner fluid on the owned leaves, as the last
   // inner_properties left it (sized to the tree then), for the snapshots.

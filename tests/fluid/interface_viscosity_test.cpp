@@ -52,8 +52,8 @@ struct LidModes {
     }
     return m;
   }
-  LidModes() { solve(); }
-  // The coefficients c for the current y0, mu1, mu2, U.
+  explicit LidModes(double upper_viscosity) : mu2(upper_viscosity) { solve(); }
+  // The coefficients c for y0, mu1, mu2, U.
   void solve() {
     Eigen::Matrix<double, 8, 8> a = Eigen::Matrix<double, 8, 8>::Zero();
     Eigen::Matrix<double, 8, 1> b = Eigen::Matrix<double, 8, 1>::Zero();
@@ -98,9 +98,7 @@ struct LayerErrors {
 // with dt (at level 6 with the jump, L1 1.76e-3, 1.44e-3 and 1.48e-3 at dt = 1e-3, 3e-4 and
 // 1e-4).
 LayerErrors lid_errors(int level, double mu2) {
-  LidModes m;
-  m.mu2 = mu2;
-  m.solve();
+  const LidModes m(mu2);
   Tree<2> t({.roots = {1, 1}, .periodic = {true, false}, .max_level = level});
   t.refine_to([level](const tree::Box<2>&) { return level; });
   auto sides = all<2>(SideKind::periodic);
