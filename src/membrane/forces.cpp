@@ -112,6 +112,10 @@ void MembraneModel::throw_bad_element(const Eigen::Matrix3Xd& x, std::int64_t sl
   throw ElementError(msg.str(), e);
 }
 
+// stiffness.cpp reports bad elements too.
+template void MembraneModel::throw_bad_element<3>(const Eigen::Matrix3Xd&, std::int64_t) const;
+template void MembraneModel::throw_bad_element<6>(const Eigen::Matrix3Xd&, std::int64_t) const;
+
 template <int Nn, class Law>
 double MembraneModel::assemble(const Law& law, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd* forces,
                                Eigen::Vector3d* buffer) const {

@@ -20,6 +20,7 @@
 #include "membrane/quadrature.hpp"
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 
 #include <cstdint>
 #include <variant>
@@ -50,6 +51,13 @@ class MembraneModel {
   // Non-const: it uses the model's element force buffer (one evaluation at a time per model).
   double compute_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& forces);
 
+  // The tangent stiffness K = d2E/dx2 = -dF/dx at x (stiffness_kernel.hpp): 3n x 3n, row and
+  // column 3 node + component (the order of x.data()), symmetric, with the mesh's pattern
+  // (nodes that share an element; built at the first call). The reference stays valid until
+  // the next call. Throws like energy(). Non-const: the model holds the matrix and its
+  // element buffer. Assembled like the forces, by gather: the same bits on any thread count.
+  const Eigen::SparseMatrix<double>& stiffness(const Eigen::Matrix3Xd& x);
+
   // Principal stretches and Cauchy tensions at each element's centroid (xi = eta = 1/3),
   // in element order, for output.
   [[nodiscard]] std::vector<PrincipalTensions> element_tensions(const Eigen::Matrix3Xd& x) const;
@@ -61,6 +69,10 @@ class MembraneModel {
   template <int Nn, class Law>
   double assemble(const Law& law, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd* forces,
                   Eigen::Vector3d* buffer) const;
+  template <int Nn>
+  void build_stiffness_pattern();
+  template <int Nn, class Law>
+  void assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x);
   template <int Nn>
   [[noreturn]] void throw_bad_element(const Eigen::Matrix3Xd& x, std::int64_t slot) const;
   void check_configuration(const Eigen::Matrix3Xd& x) const;
@@ -76,6 +88,11 @@ class MembraneModel {
   std::vector<Eigen::Vector3d> element_forces_;
   std::vector<std::size_t> node_offsets_;
   std::vector<std::int64_t> node_entries_;
+  // The stiffness: the matrix, its element buffer [element][(3 Nn)^2, column-major], and for
+  // each stored value its buffer entries (CSR, in element order).
+  Eigen::SparseMatrix<double> stiffness_;
+  std::vector<double> element_stiffness_;
+  std::vector<std::int64_t> value_offsets_, value_entries_;
 };
 
 }  // namespace capsflow::membrane

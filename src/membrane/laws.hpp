@@ -3,8 +3,9 @@
 // two invariants of the surface right Cauchy-Green tensor C (2x2, mixed components
 // C^a_b = G^ac g_cb in the covariant bases of the reference and current surfaces):
 //   tr C = lambda1^2 + lambda2^2,  det C = lambda1^2 lambda2^2 = J^2.
-// A law is a small type with energy(tr, det) and derivatives(tr, det) = (dW/dtr, dW/ddet);
-// everything else (nodal forces, tensions) is written once for any such type.
+// A law is a small type with energy(tr, det), derivatives(tr, det) = (dW/dtr, dW/ddet) and
+// second_derivatives(tr, det); everything else (nodal forces, tensions, stiffness) is
+// written once for any such type.
 //
 // Second Piola-Kirchhoff tension S = 2 dW/dC = 2 (W_tr G^-1 + W_det det(C) C^-1), and the
 // principal Cauchy tensions (force per deformed length), for principal stretches l1, l2:
@@ -28,6 +29,13 @@ struct InvariantDerivatives {
   double w_det;  // dW / d(det C)
 };
 
+// The second derivatives, for the membrane's tangent stiffness (stiffness_kernel.hpp).
+struct InvariantSecondDerivatives {
+  double w_tr_tr;    // d2W / d(tr C)^2
+  double w_tr_det;   // d2W / d(tr C) d(det C)
+  double w_det_det;  // d2W / d(det C)^2
+};
+
 struct Skalak {
   double gs = 1.0;  // surface shear modulus
   double c = 1.0;   // area dilatation parameter: Ks = Gs (1 + 2C)
@@ -38,6 +46,9 @@ struct Skalak {
   }
   [[nodiscard]] InvariantDerivatives derivatives(double tr, double det) const noexcept {
     return {0.5 * gs * (tr - 1.0), 0.5 * gs * (c * (det - 1.0) - 1.0)};
+  }
+  [[nodiscard]] InvariantSecondDerivatives second_derivatives(double /*tr*/, double /*det*/) const noexcept {
+    return {0.5 * gs, 0.0, 0.5 * gs * c};
   }
 };
 
@@ -50,12 +61,16 @@ struct NeoHookean {
   [[nodiscard]] InvariantDerivatives derivatives(double /*tr*/, double det) const noexcept {
     return {0.5 * gs, -0.5 * gs / (det * det)};
   }
+  [[nodiscard]] InvariantSecondDerivatives second_derivatives(double /*tr*/, double det) const noexcept {
+    return {0.0, 0.0, gs / (det * det * det)};
+  }
 };
 
 template <class L>
 concept MembraneLaw = requires(const L& law, double a, double b) {
   { law.energy(a, b) } -> std::convertible_to<double>;
   { law.derivatives(a, b) } -> std::same_as<InvariantDerivatives>;
+  { law.second_derivatives(a, b) } -> std::same_as<InvariantSecondDerivatives>;
 };
 
 // Adding a law: a type above, an enumerator here and an alternative in AnyLaw.
