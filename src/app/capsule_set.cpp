@@ -88,6 +88,9 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : ca
     case io::NodeScheme::ab2: coupling_->set_node_scheme(ibm::NodeScheme::ab2); break;
     case io::NodeScheme::midpoint: coupling_->set_node_scheme(ibm::NodeScheme::midpoint); break;
   }
+  coupling_->set_implicit({.enabled = c.time.coupling == io::Coupling::implicit_forces,
+                           .tolerance = c.time.implicit_tolerance,
+                           .max_iterations = c.time.implicit_max_iterations});
   for (std::size_t i = 0; i < c.capsules.size(); ++i) {
     const io::CapsuleConfig& k = c.capsules[i];
     const int index = static_cast<int>(i);

@@ -193,6 +193,43 @@ StepStats NavierStokes<D>::step() {
 }
 
 template <int D>
+typename NavierStokes<D>::State NavierStokes<D>::save_state() const {
+  State s;
+  for (int d = 0; d < D; ++d)
+    for (const tree::FieldId f : {u_[d], g_[d]}) s.fields.emplace_back(tree_.values(f).begin(), tree_.values(f).end());
+  for (const tree::FieldId f : {p_, pf_}) s.fields.emplace_back(tree_.values(f).begin(), tree_.values(f).end());
+  s.faces = uf_;
+  s.time = time_;
+  s.last_dt = last_dt_;
+  s.faces_current = faces_current_;
+  s.faces_carried = faces_carried_;
+  return s;
+}
+
+template <int D>
+void NavierStokes<D>::restore_state(const State& s) {
+  const auto cells = static_cast<std::size_t>(tree_.num_cells());
+  if (s.fields.size() != 2 * D + 2 || s.fields[0].size() != cells)
+    throw std::invalid_argument("NavierStokes::restore_state: the state was saved on another tree");
+  std::size_t k = 0;
+  const auto put = [&](tree::FieldId f) {
+    const std::vector<double>& v = s.fields[k++];
+    std::copy(v.begin(), v.end(), tree_.values(f).begin());
+  };
+  for (int d = 0; d < D; ++d) {
+    put(u_[d]);
+    put(g_[d]);
+  }
+  put(p_);
+  put(pf_);
+  uf_ = s.faces;
+  time_ = s.time;
+  last_dt_ = s.last_dt;
+  faces_current_ = s.faces_current;
+  faces_carried_ = s.faces_carried;
+}
+
+template <int D>
 void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
   // u* + dt g carries the previous pressure gradient and acceleration through the
   // implicit solve; they are taken out again after it (Basilisk's correction(+-dt)).

@@ -201,6 +201,20 @@ class NavierStokes {
   const FaceField<D>& face_force() const { return force_; }
 
   StepStats step();
+
+  // What a step changes: the velocity, the pressure and its gradient, the faces and the
+  // time. An implicit coupling takes several steps from one start (fluid/time_step.hpp);
+  // restoring and stepping again repeats the step to the last bit. Only on the tree it was
+  // saved on: restore_state throws std::invalid_argument when the cell count differs.
+  struct State {
+    std::vector<std::vector<double>> fields;
+    FaceField<D> faces;
+    double time = 0.0, last_dt = 0.0;
+    bool faces_current = false, faces_carried = false;
+  };
+  [[nodiscard]] State save_state() const;
+  void restore_state(const State& s);
+
   // Adapts the tree (velocity wavelets at `tolerance`, plus the options' forced levels),
   // carrying every field; returns the tree's counts. With relative > 0 the tolerance is
   // velocity_tolerance(tolerance, relative).

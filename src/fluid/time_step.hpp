@@ -10,7 +10,14 @@
 //   5. motion         the body moves with it;
 //   6. adaptation     fluid::Adaptation::after_step, by the run loop once the step is done.
 // Each stage runs for every body, in the order the bodies were attached, before the next.
+//
+// An implicit body (an implicit membrane coupling) needs the flow's answer to forces other
+// than the ones it spread: between stages 3 and 4 its correct() may spread again and call
+// `rerun`, which takes the step again from the same start (NavierStokes::save_state) with
+// whatever force is spread now. The last rerun's flow is the step's.
 #include <chrono>
+#include <functional>
+#include <optional>
 #include <vector>
 
 #include "fluid/navier_stokes.hpp"
@@ -24,6 +31,11 @@ class StepBody {
   virtual void spreading() = 0;
   // The flow step threw: what spreading prepared belongs to the step that failed.
   virtual void flow_failed() {}
+  // Whether correct() has work this step (then the flow's start is saved before stage 3).
+  [[nodiscard]] virtual bool implicit() const { return false; }
+  // Between stages 3 and 4: rerun() restores the start, takes the flow step again with the
+  // force spread now and returns its statistics.
+  virtual void correct(const std::function<StepStats()>& /*rerun*/) {}
   virtual void interpolation() = 0;
   // flow: the flow step's statistics; flow_seconds: its wall time (a face force the body
   // added during it included).
@@ -36,14 +48,28 @@ class TimeStep {
   explicit TimeStep(NavierStokes<D>& ns) : ns_(ns) {}
   void attach(StepBody& body) { bodies_.push_back(&body); }
 
-  // Stages 1-5 of one step; the flow step's statistics.
+  // Stages 1-5 of one step; the flow step's statistics (with reruns: the cycles of every
+  // flow step taken, converged only if every solve was).
   StepStats run() {
     for (StepBody* b : bodies_) b->forces();
     for (StepBody* b : bodies_) b->spreading();
     const auto start = std::chrono::steady_clock::now();
     StepStats flow;
     try {
+      std::optional<typename NavierStokes<D>::State> saved;
+      for (StepBody* b : bodies_)
+        if (b->implicit() && !saved) saved = ns_.save_state();
       flow = ns_.step();
+      if (saved) {
+        const auto rerun = [&] {
+          ns_.restore_state(*saved);
+          const StepStats again = ns_.step();
+          add_cycles(flow, again);
+          return again;
+        };
+        for (StepBody* b : bodies_)
+          if (b->implicit()) b->correct(rerun);
+      }
     } catch (...) {
       for (StepBody* b : bodies_) b->flow_failed();
       throw;
@@ -55,6 +81,14 @@ class TimeStep {
   }
 
  private:
+  static void add_cycles(StepStats& total, const StepStats& more) {
+    total.projection_cycles += more.projection_cycles;
+    total.prediction_cycles += more.prediction_cycles;
+    total.viscous_cycles += more.viscous_cycles;
+    total.converged = total.converged && more.converged;
+    total.unconverged += more.unconverged;
+  }
+
   NavierStokes<D>& ns_;
   std::vector<StepBody*> bodies_;
 };

@@ -375,23 +375,32 @@ void CapsuleCoupling::zero_unspread_forces() {
   else face_force_zero_ = false;
 }
 
-void CapsuleCoupling::interpolate_velocities(int step) {
-  const auto t0 = Clock::now();
+void CapsuleCoupling::interpolate_into(int step, const std::function<Eigen::Matrix3Xd&(Capsule&)>& velocity_of) {
+  if (distributed()) {
+    interpolate_routed(step, ns_.face_velocity(), velocity_of);
+    return;
+  }
   const tree::Tree<3>& t = ns_.tree();
   const std::array<std::span<const double>, 3> u{ns_.u(0), ns_.u(1), ns_.u(2)};
   for (int k = 0; k < num_capsules(); ++k) {
     Capsule& c = capsule(k);
-    std::swap(c.previous_velocity, c.velocity);  // V^(n-1); velocity gets V^n
     try {
       const Eigen::Matrix3Xd& at = stage_positions(c);
       if (c.kernels.staggered)
-        interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, c.velocity,
+        interpolate_faces(c.kernels.interpolate, c.kernels.divergence_free, t, ns_.face_velocity(), at, velocity_of(c),
                           boxes(static_cast<std::size_t>(k)), interpolation_walls(static_cast<std::size_t>(k)));
-      else interpolate(c.kernels.interpolate, t, u, at, c.velocity);
+      else interpolate(c.kernels.interpolate, t, u, at, velocity_of(c));
     } catch (const StencilError& e) {
       fail_stencil(step, k, e);
     }
   }
+}
+
+void CapsuleCoupling::interpolate_velocities(int step) {
+  const auto t0 = Clock::now();
+  for (int k = 0; k < num_capsules(); ++k)
+    if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);  // V^(n-1); velocity gets V^n
+  interpolate_into(step, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
   times_.interpolation += seconds_since(t0);
 }
 
@@ -542,8 +551,7 @@ void CapsuleCoupling::flow_failed() { force_ready_ = false; }  // the spread for
 void CapsuleCoupling::interpolation() {
   const int step = static_cast<int>(steps_ + 1);
   force_ready_ = false;
-  if (distributed()) distributed_interpolation(step);
-  else interpolate_velocities(step);
+  interpolate_velocities(step);  // on N ranks routed (interpolate_into)
   for (NodeBoxes& b : boxes_) b.clear();  // their arrays are kept: a step's boxes fill them again
   for (WallWeights& w : spread_walls_) w.clear();
   for (WallWeights& w : interpolation_walls_) w.clear();
@@ -551,9 +559,11 @@ void CapsuleCoupling::interpolation() {
 
 void CapsuleCoupling::motion(const fluid::StepStats& flow, double flow_seconds) {
   const int step = static_cast<int>(steps_ + 1);
-  times_.fluid += flow_seconds - face_seconds_;  // the face force is spread inside the flow step
+  // The face force is spread inside the flow step, and an implicit step's correction spreads,
+  // interpolates and solves between its flow steps: the stages time those themselves.
+  times_.fluid += flow_seconds - face_seconds_ - implicit_seconds_;
   times_.spreading += face_seconds_;
-  face_seconds_ = 0.0;
+  face_seconds_ = implicit_seconds_ = 0.0;
   const double previous_dt = last_dt_;
   last_dt_ = flow.dt;
   collectively([&] { advance_nodes(step, flow.dt, previous_dt); });

@@ -93,6 +93,7 @@ struct Capsule {
   Eigen::Matrix3Xd x_mid;              // midpoint scheme: X*, where forces and velocities are taken
   Eigen::Matrix3Xd start_velocity;     // midpoint scheme: J(X*) u^n
   Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (may_wait)
+  Eigen::Matrix3Xd response;    // implicit coupling: J u of its latest flow step (scratch)
   double energy = 0.0;        // E at the positions the last step took the forces at
   // The work the membrane forces did on the fluid since the run began: the sum over the
   // steps of dt F . (X(t + dt) - X(t)) / dt, with F the step's forces (Euler: at X(t); the
@@ -264,6 +265,37 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   void set_steps_since_adapt(std::int64_t n) { since_adapt_ = n; }
   [[nodiscard]] NodeScheme node_scheme() const { return scheme_; }
   void set_node_scheme(NodeScheme s) { scheme_ = s; }
+
+  // The coupling in time (issue 30; implicit_coupling.cpp). Off (the default): the explicit
+  // coupling above, the forces at X(t). On: linearised backward Euler. The fluid feels
+  // F(X + dX) ~ F(X) - K dX, K the membranes' tangent stiffness at X
+  // (membrane/stiffness_kernel.hpp) and dX the step's own displacement dt J u(t + dt); the
+  // flow being affine in its force (u = u_explicit - L S K dX),
+  //   (I + dt J L S K) dX = dt J u_explicit,
+  // solved by FGMRES (gmres.hpp) whose every product is the flow step taken again from the
+  // same start (fluid/time_step.hpp, rerun) with the force F - K v. The step is then taken
+  // once more with F - K dX, and the nodes move with J u(t + dt) as Euler's do: by the
+  // divergence-free kernels, so the volume stays. For K >= 0 the eigenvalues of
+  // I + dt J L S K are >= 1 and the step is stable at any dt. Euler nodes only.
+  struct ImplicitOptions {
+    bool enabled = false;
+    double tolerance = 1e-3;  // FGMRES: |residual| / |dt J u_explicit|
+    int max_iterations = 40;  // products (flow steps) before the step fails
+  };
+  // Throws std::invalid_argument for a tolerance outside (0, 1), max_iterations < 1, or a flow
+  // without FlowOptions::current_force_in_viscous (the force a step late in the viscous solve
+  // drives grid-scale cell velocities by dt f / rho, undamped: at steps above a cell's viscous
+  // time the fluid then gains more energy than the force gives it, measured).
+  void set_implicit(const ImplicitOptions& o);
+  [[nodiscard]] const ImplicitOptions& implicit_options() const { return implicit_; }
+  struct ImplicitStats {
+    std::int64_t steps = 0;     // implicit steps taken
+    std::int64_t products = 0;  // FGMRES products (flow steps besides each step's two)
+    int most_products = 0;      // in one step
+  };
+  [[nodiscard]] const ImplicitStats& implicit_stats() const { return implicit_stats_; }
+  [[nodiscard]] bool implicit() const override { return implicit_.enabled && num_capsules() > 0; }
+  void correct(const std::function<fluid::StepStats()>& rerun) override;
   // dt of the last step (0 before the first: that step is Euler). A checkpoint keeps it with
   // each capsule's velocity, so that a restarted run takes the same AB2 steps.
   [[nodiscard]] double last_dt() const { return last_dt_; }
@@ -338,8 +370,11 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // capsule) has no open face in its stencils: it is inside a solid.
   void require_open_faces(int step, int k, std::size_t i,
                           const std::function<std::int64_t(Eigen::Index)>& node_of) const;
-  // The nodes' velocities from uf (interpolate_faces per owned capsule), then advance_nodes.
+  // V^(n-1) <- V and V <- J u(t + dt) for every owned capsule.
   void interpolate_velocities(int step);
+  // J u of the current flow at the stage positions into velocity_of(c) of every owned
+  // capsule (this step's boxes; on N ranks routed). Collective.
+  void interpolate_into(int step, const std::function<Eigen::Matrix3Xd&(Capsule&)>& velocity_of);
   // X += dt (the scheme's motion) for every owned capsule, each new position checked first.
   void advance_nodes(int step, double dt, double previous_dt);
 
@@ -352,7 +387,6 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // N ranks (capsule_distribution.cpp): the routed forms of the stages.
   void distributed_forces(int step);
   void distributed_spreading(int step);
-  void distributed_interpolation(int step);
   void migrate();  // owned capsules whose centroid left this rank's cells go to its owner
   [[nodiscard]] int owner_of(const Eigen::Matrix3Xd& x) const;
   [[nodiscard]] OwnedPositions owned_positions() const;
@@ -415,6 +449,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   std::vector<Eigen::Matrix3Xd> motion_;  // per capsule: the node velocity of stage 5
   fluid::FaceField<3> start_faces_;       // midpoint scheme: u^n on faces at the first step and after a restart
   fluid::NavierStokes<3>::FaceForce background_;
+  ImplicitOptions implicit_;
+  ImplicitStats implicit_stats_;
+  double implicit_seconds_ = 0.0;  // inside correct(), besides its flow steps (see motion)
 };
 
 }  // namespace capsflow::ibm

@@ -250,13 +250,6 @@ void CapsuleCoupling::distributed_spreading(int step) {
   }
 }
 
-void CapsuleCoupling::distributed_interpolation(int step) {
-  const auto t0 = Clock::now();
-  for (int k = 0; k < num_capsules(); ++k)
-    if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);
-  interpolate_routed(step, ns_.face_velocity(), [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
-  times_.interpolation += seconds_since(t0);
-}
 
 std::int64_t CapsuleCoupling::leaf_weight(int level, tree::Key key, std::int64_t band_weight) const {
   if (level != ns_.tree().max_level()) return 1;

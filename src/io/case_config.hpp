@@ -25,6 +25,7 @@ enum class MembraneLaw : unsigned char { skalak, neo_hookean };
 enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
 enum class KernelType : unsigned char { cosine, hat, peskin4 };
 enum class NodeScheme : unsigned char { euler, ab2, midpoint };
+enum class Coupling : unsigned char { explicit_forces, implicit_forces };
 enum class SolidShape : unsigned char { box, sphere, cylinder, tube, stl };
 enum class SolidCombine : unsigned char { unite, subtract, intersect };
 enum class SolidFill : unsigned char { inside, outside };
@@ -36,6 +37,7 @@ enum class SolidFill : unsigned char { inside, outside };
 [[nodiscard]] std::string_view to_string(InitialShape v);
 [[nodiscard]] std::string_view to_string(KernelType v);
 [[nodiscard]] std::string_view to_string(NodeScheme v);
+[[nodiscard]] std::string_view to_string(Coupling v);
 [[nodiscard]] std::string_view to_string(SolidShape v);
 [[nodiscard]] std::string_view to_string(SolidCombine v);
 [[nodiscard]] std::string_view to_string(SolidFill v);
@@ -159,6 +161,11 @@ struct TimeConfig {
   double cfl = 0.0;     // 0: fixed dt; > 0: dt = cfl h_min / |u|_max, capped by dt_max
   double dt_max = 0.0;  // cap of the adaptive dt (0: dt)
   NodeScheme node_scheme = NodeScheme::euler;  // how membrane nodes move (ibm::NodeScheme)
+  // The membrane forces in time (ibm::CapsuleCoupling::ImplicitOptions): "explicit" at X(t),
+  // "implicit" linearised at X(t + dt); the implicit solve's tolerance and most flow steps.
+  Coupling coupling = Coupling::explicit_forces;
+  double implicit_tolerance = 1e-3;
+  int implicit_max_iterations = 40;
   bool operator==(const TimeConfig&) const = default;
 };
 

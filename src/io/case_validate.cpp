@@ -277,6 +277,13 @@ void check_time(const CaseConfig& c, const Checker& ck) {
   };
   steps("time.dt", c.time.dt);
   if (c.time.dt_max > 0.0) steps("time.dt_max", c.time.dt_max);
+  if (!(c.time.implicit_tolerance > 0.0 && c.time.implicit_tolerance < 1.0))
+    ck.fail("time.implicit_tolerance", toml_number(c.time.implicit_tolerance), "must lie in (0, 1)");
+  ck.at_least("time.implicit_max_iterations", c.time.implicit_max_iterations, 1);
+  if (c.time.coupling == Coupling::implicit_forces && c.time.node_scheme != NodeScheme::euler)
+    ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
+            "the implicit coupling (time.coupling = \"implicit\") moves the nodes by Euler's rule: set "
+            "time.node_scheme = \"euler\"");
 }
 
 void check_output(const CaseConfig& c, const Checker& ck) {

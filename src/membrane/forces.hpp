@@ -28,6 +28,11 @@
 
 namespace capsflow::membrane {
 
+// Which tangent stiffness MembraneModel::stiffness assembles (stiffness_kernel.hpp): the
+// exact Hessian, or its positive semi-definite variant (each quadrature point's Hessian in
+// the tangents projected on its non-negative eigenvalues).
+enum class StiffnessPart : unsigned char { exact, positive };
+
 struct ModelOptions {
   // 0: element default (P1: 1 point; P2: Hammer 3 points). Otherwise the smallest collapsed
   // Gauss rule exact for this polynomial degree.
@@ -51,12 +56,13 @@ class MembraneModel {
   // Non-const: it uses the model's element force buffer (one evaluation at a time per model).
   double compute_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& forces);
 
-  // The tangent stiffness K = d2E/dx2 = -dF/dx at x (stiffness_kernel.hpp): 3n x 3n, row and
-  // column 3 node + component (the order of x.data()), symmetric, with the mesh's pattern
-  // (nodes that share an element; built at the first call). The reference stays valid until
-  // the next call. Throws like energy(). Non-const: the model holds the matrix and its
-  // element buffer. Assembled like the forces, by gather: the same bits on any thread count.
-  const Eigen::SparseMatrix<double>& stiffness(const Eigen::Matrix3Xd& x);
+  // The tangent stiffness K = d2E/dx2 = -dF/dx at x (stiffness_kernel.hpp), or its positive
+  // variant: 3n x 3n, row and column 3 node + component (the order of x.data()), symmetric,
+  // with the mesh's pattern (nodes that share an element; built at the first call). The
+  // reference stays valid until the next call. Throws like energy(). Non-const: the model
+  // holds the matrix and its element buffer. Assembled like the forces, by gather: the same
+  // bits on any thread count.
+  const Eigen::SparseMatrix<double>& stiffness(const Eigen::Matrix3Xd& x, StiffnessPart part = StiffnessPart::exact);
 
   // Principal stretches and Cauchy tensions at each element's centroid (xi = eta = 1/3),
   // in element order, for output.
@@ -72,7 +78,7 @@ class MembraneModel {
   template <int Nn>
   void build_stiffness_pattern();
   template <int Nn, class Law>
-  void assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x);
+  void assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x, bool positive);
   template <int Nn>
   [[noreturn]] void throw_bad_element(const Eigen::Matrix3Xd& x, std::int64_t slot) const;
   void check_configuration(const Eigen::Matrix3Xd& x) const;

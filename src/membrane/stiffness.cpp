@@ -45,7 +45,7 @@ void MembraneModel::build_stiffness_pattern() {
 }
 
 template <int Nn, class Law>
-void MembraneModel::assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x) {
+void MembraneModel::assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x, bool positive) {
   constexpr int kEntries = 9 * Nn * Nn;
   const ShapeDerivatives<Nn>* d = std::get<std::vector<ShapeDerivatives<Nn>>>(shape_derivatives_).data();
   const int nq = static_cast<int>(rule_.points.size());
@@ -71,7 +71,7 @@ void MembraneModel::assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x
         if (bad_slot < 0 || slot < bad_slot) bad_slot = slot;
         continue;
       }
-      element_stiffness<Nn>(law, xe, d, ref + slot * nq, nq, k);
+      element_stiffness<Nn>(law, xe, d, ref + slot * nq, nq, positive, k);
       std::copy(k.data(), k.data() + kEntries, buffer + slot * kEntries);
     }
 #pragma omp for schedule(static)
@@ -85,11 +85,11 @@ void MembraneModel::assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x
   if (bad_slot >= 0) throw_bad_element<Nn>(x, bad_slot);
 }
 
-const Eigen::SparseMatrix<double>& MembraneModel::stiffness(const Eigen::Matrix3Xd& x) {
+const Eigen::SparseMatrix<double>& MembraneModel::stiffness(const Eigen::Matrix3Xd& x, StiffnessPart part) {
   check_configuration(x);
   with_element_nodes(mesh_.order, [&](auto nn) {
     if (value_offsets_.empty()) build_stiffness_pattern<nn()>();
-    std::visit([&](const auto& law) { assemble_stiffness<nn()>(law, x); }, law_);
+    std::visit([&](const auto& law) { assemble_stiffness<nn()>(law, x, part == StiffnessPart::positive); }, law_);
   });
   return stiffness_;
 }

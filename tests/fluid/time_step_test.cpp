@@ -1,7 +1,8 @@
 // fluid::TimeStep (the named stages of a step): every attached body runs each stage before
 // the next one starts, in the order of attachment, with the flow step between spreading and
 // interpolation; motion gets the flow step's own statistics; a flow step that throws tells
-// every body (flow_failed) and reaches the caller, and no later stage runs.
+// every body (flow_failed) and reaches the caller, and no later stage runs; an implicit body
+// reruns the step from its start (NavierStokes::save_state).
 #include <gtest/gtest.h>
 
 #include <stdexcept>
@@ -81,6 +82,65 @@ TEST(TimeStep, WithoutBodiesItIsTheFlowStep) {
   const StepStats a = step.run(), b = plain.ns.step();
   EXPECT_EQ(a.t, b.t);
   EXPECT_EQ(a.cycles(), b.cycles());
+}
+
+// An implicit body takes the flow step again from its start with other forces: the step's
+// flow is then the last rerun's, to the last bit that of one plain step with that force, the
+// time advances once, and the statistics count every flow step's cycles.
+struct Rerunner final : StepBody {
+  explicit Rerunner(double& a) : amplitude(a) {}
+  void forces() override {}
+  void spreading() override {}
+  void interpolation() override {}
+  void motion(const StepStats& flow, double) override { seen = flow; }
+  bool implicit() const override { return true; }
+  void correct(const std::function<StepStats()>& rerun) override {
+    for (const double a : {2.0, 3.0}) {
+      amplitude = a;
+      rerun_cycles += rerun().cycles();
+    }
+  }
+  double& amplitude;
+  StepStats seen;
+  int rerun_cycles = 0;
+};
+
+TEST(TimeStep, AnImplicitBodyRerunsTheStepFromItsStart) {
+  double amplitude = 1.0;
+  const auto force = [&amplitude](const tree::Tree<2>& t, FaceField<2>& f) {
+    for_each_face<2>(t, [&](int d, Index, Index hi, double, const tree::Level<2>&) {
+      f[d][hi] = d == 0 ? amplitude * t.center(hi)[1] : 0.0;  // a shear force along x
+    });
+  };
+  Box stepped, plain;
+  stepped.ns.set_face_force(force);
+  plain.ns.set_face_force(force);
+  // A first step each, so the rerun starts from a flow with a pressure and faces.
+  (void)stepped.ns.step();
+  (void)plain.ns.step();
+  Rerunner body(amplitude);
+  TimeStep<2> step(stepped.ns);
+  step.attach(body);
+  const StepStats st = step.run();
+  amplitude = 3.0;
+  const StepStats once = plain.ns.step();
+  EXPECT_EQ(st.t, once.t);
+  EXPECT_EQ(stepped.ns.time(), plain.ns.time());
+  EXPECT_GT(body.rerun_cycles, 0);
+  EXPECT_GT(st.cycles(), body.rerun_cycles);  // the first flow step's cycles, and the reruns'
+  EXPECT_EQ(body.seen.cycles(), st.cycles());
+  for (int d = 0; d < 2; ++d)
+    for (const Index c : stepped.tree.leaves()) ASSERT_EQ(stepped.ns.u(d)[c], plain.ns.u(d)[c]) << "cell " << c;
+  for (const Index c : stepped.tree.leaves()) ASSERT_EQ(stepped.ns.p()[c], plain.ns.p()[c]) << "cell " << c;
+}
+
+TEST(NavierStokesState, RestoreOnAnotherTreeIsRefused) {
+  Box a;
+  const auto saved = a.ns.save_state();
+  tree::Tree<2> other{tree::TreeOptions<2>{.roots = {1, 1}, .root_size = 1.0, .max_level = 3}};
+  (void)other.refine_to([](const tree::Box<2>&) { return 2; });
+  NavierStokes<2> ns(other, Box::flow());
+  EXPECT_THROW(ns.restore_state(saved), std::invalid_argument);
 }
 
 }  // namespace

@@ -85,12 +85,14 @@ struct PeriodicBox {
     t.refine_to([](const tree::Box<3>&) { return 2; });
     return t;
   }
-  static fluid::FlowOptions<3> flow(bool stokes) {
+  static fluid::FlowOptions<3> flow(bool stokes, bool current_force_in_viscous = false) {
     fluid::FlowOptions<3> o{.Re = 1.0, .stokes = stokes, .dt = 0.01};
+    o.current_force_in_viscous = current_force_in_viscous;
     for (auto& side : o.boundaries) side.kind = fluid::SideKind::periodic;
     return o;
   }
-  explicit PeriodicBox(bool stokes) : ns(tree, flow(stokes)) {}
+  explicit PeriodicBox(bool stokes, bool current_force_in_viscous = false)
+      : ns(tree, flow(stokes, current_force_in_viscous)) {}
 
   tree::Tree<3> tree = make_tree();
   fluid::NavierStokes<3> ns;

@@ -95,6 +95,31 @@ TEST(io_case_errors, NodeSchemeAndUnconvergedFailureKeys) {
               HasSubstr("fluid.multigrid.fail_on_unconverged"));
 }
 
+// time.coupling and the implicit solve's keys (issue 30): read, written back, defaults, and
+// the values refused naming the key.
+TEST(io_case_errors, ImplicitCouplingKeys) {
+  const CaseConfig c = parse_case_text(std::string(kBase) +
+                                           "[time]\ncoupling = \"implicit\"\nimplicit_tolerance = 1e-4\n"
+                                           "implicit_max_iterations = 12\n",
+                                       "c");
+  EXPECT_EQ(c.time.coupling, Coupling::implicit_forces);
+  EXPECT_EQ(c.time.implicit_tolerance, 1e-4);
+  EXPECT_EQ(c.time.implicit_max_iterations, 12);
+  EXPECT_EQ(parse_case_text(to_toml(c), "c"), c);
+  const CaseConfig d = parse_case_text(std::string(kBase), "c");
+  EXPECT_EQ(d.time.coupling, Coupling::explicit_forces);
+  EXPECT_EQ(d.time.implicit_tolerance, 1e-3);
+  EXPECT_EQ(d.time.implicit_max_iterations, 40);
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncoupling = \"semi\"\n"), HasSubstr("time.coupling"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\nimplicit_tolerance = 1\n"),
+              HasSubstr("time.implicit_tolerance = 1.0: must lie in (0, 1)"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\nimplicit_max_iterations = 0\n"),
+              HasSubstr("time.implicit_max_iterations = 0: must be >= 1"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncoupling = \"implicit\"\nnode_scheme = \"midpoint\"\n"),
+              HasSubstr("time.node_scheme = \"midpoint\": the implicit coupling (time.coupling = \"implicit\") moves "
+                        "the nodes by Euler's rule"));
+}
+
 TEST(io_case_errors, MaxLevelBelowMinLevel) {
   EXPECT_THAT(error_of(std::string(kBase) + "[adapt]\nmin_level = 5\nmax_level = 3\n"),
               HasSubstr("adapt.max_level = 3: must be >= adapt.min_level (5)"));

@@ -1,15 +1,19 @@
 // The tangent stiffness K = d2E/dX2: it is the Jacobian of -F, symmetric, it respects rigid
 // motions (translations are zero modes, an infinitesimal rotation turns the forces), its
-// assembly is race-free, and bad configurations are named as for the forces.
+// positive variant is positive, its assembly is race-free, and bad configurations are named
+// as for the forces.
 #include "configurations.hpp"
 #include "membrane/errors.hpp"
 #include "membrane/forces.hpp"
 #include "membrane/mesh.hpp"
+#include "membrane/shapes.hpp"
 
 #include <gmock/gmock.h>
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -114,19 +118,57 @@ TEST(membrane_stiffness, IsPositiveAtTheReference) {
   }
 }
 
+// The seed ellipsoid is compressed across its long axis: there the exact K has negative
+// eigenvalues (wrinkling modes), which an implicit step would amplify. The positive variant
+// has none, and under tension everywhere (an inflated sphere) it is the exact K, for laws
+// whose W_det < 0 there: with W_det > 0 (Skalak once C (det C - 1) > 1) a shear of the
+// metric at fixed tr C lowers W and each point's Hessian is indefinite.
+TEST(membrane_stiffness, PositiveVariantHasNoNegativeEigenvalue) {
+  for (const Order order : {Order::p1, Order::p2}) {
+    MembraneModel model(make_icosphere({.order = order, .level = order == Order::p1 ? 2 : 3, .radius = 0.85}),
+                        {.kind = LawKind::skalak, .gs = 20.0, .c = 1.0});
+    const Eigen::Matrix3Xd x = seed_ellipsoid(model.mesh().nodes, Eigen::Vector3d::Zero());
+    const auto extremes = [](const Eigen::SparseMatrix<double>& k) {
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::MatrixXd(k), Eigen::EigenvaluesOnly);
+      return std::pair{eig.eigenvalues().minCoeff(), eig.eigenvalues().maxCoeff()};
+    };
+    const auto [exact_min, exact_max] = extremes(model.stiffness(x));
+    const auto [positive_min, positive_max] = extremes(model.stiffness(x, StiffnessPart::positive));
+    EXPECT_LT(exact_min, -0.01 * exact_max);
+    EXPECT_GT(positive_min, -1e-12 * positive_max);
+    std::printf("[ positive  ] %s seed ellipsoid: smallest / largest eigenvalue %.3f exact, %.1e positive\n",
+                order == Order::p1 ? "P1" : "P2", exact_min / exact_max, positive_min / positive_max);
+  }
+}
+
+TEST(membrane_stiffness, PositiveVariantIsTheHessianUnderTension) {
+  for (const Case& s : setups()) {
+    if (s.law.kind == LawKind::skalak && s.law.c * (std::pow(1.1, 4) - 1.0) > 1.0) continue;
+    MembraneModel model(make_icosphere({.order = s.order, .level = s.level}), s.law,
+                        {.quadrature_degree = s.quadrature_degree});
+    const Eigen::Matrix3Xd x = 1.1 * model.mesh().nodes;
+    const Eigen::SparseMatrix<double> exact = model.stiffness(x);
+    const Eigen::SparseMatrix<double> positive = model.stiffness(x, StiffnessPart::positive);
+    const Eigen::SparseMatrix<double> difference = exact - positive;
+    EXPECT_LE(difference.coeffs().cwiseAbs().maxCoeff(), 1e-12 * exact.coeffs().cwiseAbs().maxCoeff()) << describe(s);
+  }
+}
+
 TEST(membrane_stiffness, AssemblyIsBitwiseIndependentOfThreadCount) {
   std::mt19937 rng(34);
   const int saved = omp_get_max_threads();
   for (const Order order : {Order::p1, Order::p2}) {
     MembraneModel model(make_icosphere({.order = order, .level = 3}), {});
     const Eigen::Matrix3Xd x = random_configuration(model.mesh(), rng);
-    omp_set_num_threads(1);
-    const Eigen::SparseMatrix<double> one = model.stiffness(x);
-    omp_set_num_threads(3);
-    const Eigen::SparseMatrix<double> three = model.stiffness(x);
-    omp_set_num_threads(saved);
-    ASSERT_EQ(one.nonZeros(), three.nonZeros());
-    EXPECT_EQ(0, std::memcmp(one.valuePtr(), three.valuePtr(), sizeof(double) * static_cast<std::size_t>(one.nonZeros())));
+    for (const StiffnessPart part : {StiffnessPart::exact, StiffnessPart::positive}) {
+      omp_set_num_threads(1);
+      const Eigen::SparseMatrix<double> one = model.stiffness(x, part);
+      omp_set_num_threads(3);
+      const Eigen::SparseMatrix<double> three = model.stiffness(x, part);
+      omp_set_num_threads(saved);
+      ASSERT_EQ(one.nonZeros(), three.nonZeros());
+      EXPECT_EQ(0, std::memcmp(one.valuePtr(), three.valuePtr(), sizeof(double) * static_cast<std::size_t>(one.nonZeros())));
+    }
   }
 }
 

@@ -20,7 +20,8 @@
 #     carried across ranks by an inflow changes owner and matches one rank; an inner fluid of
 #     another viscosity and density, and one in the tube, match one rank on 3; a capsule blowing
 #     up on one rank stops every rank with status 3 and one line; two and eight capsules in a
-#     periodic box on 4 ranks match one rank, a rank hearing of at most 4 of the 8.
+#     periodic box on 4 ranks match one rank, a rank hearing of at most 4 of the 8; the
+#     implicit coupling in the channel and in the tube matches one rank on 3.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -168,6 +169,11 @@ tube=(run "$cases/tube_capsule_stokes.toml" --set 'capsule[0].nodes=642' --set '
 capsule_matches_one_rank "tube-capsule" 3 "${tube[@]}"
 # The same with an inner fluid 5 times as viscous: the walls' flux takes each cut cell's viscosity.
 capsule_matches_one_rank "tube-inner-fluid" 3 "${tube[@]}" --set 'capsule[0].viscosity_ratio=5'
+# The implicit coupling (issue 30): its solve's inner products summed over the capsules
+# exactly, its flow steps taken again from one start on every rank; in the channel and in
+# the tube (embedded walls).
+capsule_matches_one_rank "implicit-coupling" 3 "${quick[@]}" --set 'time.coupling="implicit"' --set time.dt=0.005
+capsule_matches_one_rank "tube-implicit" 3 "${tube[@]}" --set 'time.coupling="implicit"'
 # The seed case's scheme (midpoint nodes, adaptations in time, faces carried through them).
 seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
       --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)

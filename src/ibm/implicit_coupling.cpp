@@ -1,0 +1,159 @@
+// The implicit coupling's correction (capsule_coupling.hpp, ImplicitOptions): the system on
+// the step's node displacement, solved by FGMRES over flow steps taken again from one start.
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "ibm/capsule_coupling.hpp"
+#include "ibm/gmres.hpp"
+#include "membrane/errors.hpp"
+#include "parallel/exact_sum.hpp"
+
+namespace capsflow::ibm {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+void CapsuleCoupling::set_implicit(const ImplicitOptions& o) {
+  if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
+    throw std::invalid_argument(fmt::format("implicit coupling: tolerance = {} must lie in (0, 1)", o.tolerance));
+  if (o.max_iterations < 1)
+    throw std::invalid_argument(fmt::format("implicit coupling: max_iterations = {} must be >= 1", o.max_iterations));
+  if (o.enabled && !ns_.options().current_force_in_viscous)
+    throw std::invalid_argument(
+        "implicit coupling: the flow must take each step's force in its viscous solve "
+        "(fluid::FlowOptions::current_force_in_viscous); with the force a step late there, a grid-scale force drives "
+        "the cells undamped and the flow's response is not the one the solve linearises");
+  implicit_ = o;
+}
+
+void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
+  if (!implicit()) return;
+  if (scheme_ != NodeScheme::euler)
+    throw std::logic_error("ibm: the implicit coupling moves the nodes by Euler's rule only");
+  const int step = static_cast<int>(steps_ + 1);
+  const double dt = ns_.last_dt();
+  const auto t0 = Clock::now();
+  const double spreading_before = times_.spreading;
+  double flow_seconds = 0.0, membrane_seconds = 0.0;
+  const auto flow = [&] {
+    const auto f0 = Clock::now();
+    (void)rerun();
+    flow_seconds += seconds_since(f0);
+  };
+
+  // The node vector: the owned capsules' 3 x n blocks, by id.
+  std::vector<int> ids;
+  std::vector<Eigen::Index> offsets{0};
+  for (int k = 0; k < num_capsules(); ++k)
+    if (owns(k)) {
+      ids.push_back(k);
+      offsets.push_back(offsets.back() + capsule(k).x.size());
+    }
+  const auto block = [&](Eigen::VectorXd& v, std::size_t i) {
+    return Eigen::Map<Eigen::Matrix3Xd>(v.data() + offsets[i], 3, (offsets[i + 1] - offsets[i]) / 3);
+  };
+  // Per capsule in floating point, then exactly over the capsules (and ranks): the same
+  // bits on any number of ranks, the capsules' blocks being whole on their owners.
+  const auto dot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    parallel::ExactSum sum;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      sum.add(a.segment(offsets[i], offsets[i + 1] - offsets[i]).dot(b.segment(offsets[i], offsets[i + 1] - offsets[i])));
+    return ns_.tree().global_sum(sum);
+  };
+
+  // F(X), K(X) and dt J u_explicit (the flow has taken the step with F(X) spread).
+  const auto tm = Clock::now();
+  std::vector<Eigen::Matrix3Xd> start_forces(ids.size());
+  std::vector<const Eigen::SparseMatrix<double>*> stiffness(ids.size());
+  collectively([&] {
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      Capsule& c = capsule(ids[i]);
+      start_forces[i] = c.forces;
+      try {
+        stiffness[i] = &c.model.stiffness(stage_positions(c), membrane::StiffnessPart::positive);
+      } catch (const membrane::ElementError& e) {
+        fail(step, fmt::format("capsule {}: element {} is inverted or collapsed ({})", ids[i], e.element(), e.what()));
+      }
+    }
+  });
+  membrane_seconds = seconds_since(tm);
+  times_.membrane += membrane_seconds;
+  // J u of the flow as it stands, as one node vector.
+  const auto interpolated = [&] {
+    interpolate_into(step, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.response; });
+    Eigen::VectorXd v(offsets.back());
+    for (std::size_t i = 0; i < ids.size(); ++i) block(v, i) = capsule(ids[i]).response;
+    return v;
+  };
+  // Spreads F - K v and takes the flow step again.
+  const auto step_with = [&](const Eigen::VectorXd& v) {
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const Eigen::Map<const Eigen::VectorXd> kv_in(v.data() + offsets[i], offsets[i + 1] - offsets[i]);
+      Eigen::Matrix3Xd& f = capsule(ids[i]).forces;
+      Eigen::Map<Eigen::VectorXd>(f.data(), f.size()) =
+          Eigen::Map<const Eigen::VectorXd>(start_forces[i].data(), f.size()) - *stiffness[i] * kv_in;
+    }
+    // The positions, so this step's stencil boxes, stay; on N ranks the forces are routed
+    // with the positions.
+    if (distributed()) spreading();
+    else spread_forces(step);
+    flow();
+  };
+  const Eigen::VectorXd explicit_velocity = interpolated();
+  const Eigen::VectorXd b = dt * explicit_velocity;
+
+  // A v = v + dt (J u(F) - J u(F - K s v)) / s: the flow's response to -K v, by the difference
+  // of two steps. The solves stop at absolute tolerances (fluid::FlowOptions), so s scales the
+  // response to ten times J u_explicit, well above them, whatever the size of v or of F (a
+  // capsule at rest in a flow has F = 0). The response per unit force (the gain) is taken
+  // from the last product; before the first, a regularised point force's mobility,
+  // 1 / (rho h^3 / dt + 6 pi mu h), inertial or viscous.
+  const auto& flow_options = ns_.options();
+  const double h = ns_.tree().cell_size(ns_.tree().max_level());
+  const double mu = flow_options.viscosity > 0.0 ? flow_options.viscosity : 1.0 / flow_options.Re;
+  double gain = 1.0 / (flow_options.density * h * h * h / dt + 6.0 * std::numbers::pi * mu * h);
+  const double target = 10.0 * std::sqrt(dot(explicit_velocity, explicit_velocity));
+  const auto apply = [&](const Eigen::VectorXd& v) {
+    Eigen::VectorXd kv(offsets.back());
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const Eigen::Map<const Eigen::VectorXd> vi(v.data() + offsets[i], offsets[i + 1] - offsets[i]);
+      kv.segment(offsets[i], offsets[i + 1] - offsets[i]) = *stiffness[i] * vi;
+    }
+    const double kv_norm = std::sqrt(dot(kv, kv));
+    if (!(kv_norm > 0.0)) return Eigen::VectorXd(v);  // K v = 0: a rigid motion, no force
+    const double s = target / (gain * kv_norm);
+    step_with(s * v);
+    const Eigen::VectorXd response = explicit_velocity - interpolated();
+    gain = std::max(std::sqrt(dot(response, response)) / (s * kv_norm), 1e-300);
+    return Eigen::VectorXd(v + (dt / s) * response);
+  };
+  const auto identity = [](const Eigen::VectorXd& v) { return v; };
+  Eigen::VectorXd displacement;
+  const GmresResult solved = fgmres(apply, identity, dot, b, displacement, implicit_.tolerance, implicit_.max_iterations);
+  implicit_stats_.steps += 1;
+  implicit_stats_.products += solved.iterations;
+  implicit_stats_.most_products = std::max(implicit_stats_.most_products, solved.iterations);
+  if (!solved.converged)
+    fail(step, fmt::format("the implicit coupling's solve stopped at {} flow steps with the residual at {:.3g} of its "
+                           "start, above time.implicit_tolerance = {:.3g}",
+                           solved.iterations, solved.residual, implicit_.tolerance));
+  // The step itself, with F - K dX.
+  step_with(displacement);
+  // Besides its flow steps: the stiffness (membrane), the spreadings (spreading) and the
+  // interpolations with the solve's own work (interpolation).
+  const double outside_flow = seconds_since(t0) - flow_seconds;
+  implicit_seconds_ += outside_flow;
+  times_.interpolation += outside_flow - membrane_seconds - (times_.spreading - spreading_before);
+}
+
+}  // namespace capsflow::ibm
