@@ -144,12 +144,14 @@ double CapsuleCoupling::node_power(int k) const {
 void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const {
   const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
   const double dt = last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, limit = stability_limit();
-  const bool above = dt > limit;
+  const bool above = dt > limit && !implicit_.enabled;  // the implicit coupling has no such limit
   const std::string unstable = fmt::format(
       "dt = {:.3g} above the membrane stability limit of the explicit coupling, measured {:.3g} here "
       "(min(0.53 sqrt(rho dx^3 / Gs), 0.42 mu dx / Gs)): lower time.dt, or set time.cfl > 0 to keep dt below it",
       dt, limit);
-  const std::string stable = fmt::format("dt = {:.3g} is below the measured stability limit {:.3g}", dt, limit);
+  const std::string stable =
+      implicit_.enabled ? fmt::format("the implicit coupling is stable at dt = {:.3g}", dt)
+                        : fmt::format("dt = {:.3g} is below the measured stability limit {:.3g}", dt, limit);
   std::string likely;
   switch (cause) {
     case Cause::instability:
@@ -165,6 +167,11 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
                      : stable + ", so the membrane touches the wall: contact forces are not modelled yet (start the "
                                 "capsule further from the walls or slow the flow; by the brick's sides, refining "
                                 "shortens the kernels' reach)";
+      break;
+    case Cause::implicit_solve:
+      likely = fmt::format("dt = {:.3g} is long for this membrane's stiffness (the solve's products grow with dt over the "
+                           "explicit coupling's limit, {:.3g} here): raise time.implicit_max_iterations or lower time.dt",
+                           dt, limit);
       break;
   }
   throw std::runtime_error(fmt::format("{}. Likely cause: {}.", where, likely));

@@ -357,7 +357,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // What a failure's message names as its likely cause: the explicit coupling's instability
   // (when dt is above the measured limit; else a wall or a fold), a node out of the refined
   // band (instability, or a band that did not follow the membrane), or a wall.
-  enum class Cause : unsigned char { instability, band, wall };
+  // The implicit coupling's solve that did not converge is its own cause.
+  enum class Cause : unsigned char { instability, band, wall, implicit_solve };
   // Throws std::runtime_error naming the step, the time, `what` and the likely cause with the
   // keys that change it: one message a user can act on, with no internal name in it.
   [[noreturn]] void fail(int step, const std::string& what, Cause cause = Cause::instability) const;

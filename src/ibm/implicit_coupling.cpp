@@ -146,7 +146,8 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   if (!solved.converged)
     fail(step, fmt::format("the implicit coupling's solve stopped at {} flow steps with the residual at {:.3g} of its "
                            "start, above time.implicit_tolerance = {:.3g}",
-                           solved.iterations, solved.residual, implicit_.tolerance));
+                           solved.iterations, solved.residual, implicit_.tolerance),
+         Cause::implicit_solve);
   // The step itself, with F - K dX.
   step_with(displacement);
   // Besides its flow steps: the stiffness (membrane), the spreadings (spreading) and the

@@ -148,6 +148,25 @@ TEST(ImplicitCoupling, StiffCapsuleRelaxesAtTenTimesTheExplicitLimit) {
   EXPECT_LT(worst_volume, 1e-3);
 }
 
+// A solve that does not reach its tolerance in the products it is given stops the step with
+// the residual it reached and the keys that change it; the nodes keep their last positions.
+TEST(ImplicitCoupling, UnfinishedSolveStopsTheStepNamingItsKeys) {
+  auto s = test::seed_setup(SeedRun{.max_level = 4, .dt = 2e-2, .radius = 0.6, .mesh_level = 3,
+                                    .current_force_in_viscous = true});
+  s.coupling->set_implicit({.enabled = true, .max_iterations = 1});
+  const Eigen::Matrix3Xd x0 = s.coupling->capsule(0).x;
+  try {
+    (void)s.coupling->step();
+    ADD_FAILURE() << "the solve finished in one product";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("step 1 (t = "), std::string::npos) << m;
+    EXPECT_NE(m.find("the implicit coupling's solve stopped at 1 flow steps with the residual at"), std::string::npos) << m;
+    EXPECT_NE(m.find("raise time.implicit_max_iterations or lower time.dt"), std::string::npos) << m;
+  }
+  EXPECT_EQ((s.coupling->capsule(0).x - x0).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(ImplicitCoupling, NeedsTheCurrentForceInTheViscousSolve) {
   auto s = test::seed_setup(SeedRun{.max_level = 4, .radius = 0.6, .mesh_level = 3});
   EXPECT_THROW(s.coupling->set_implicit({.enabled = true}), std::invalid_argument);
