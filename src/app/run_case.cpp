@@ -25,6 +25,7 @@
 #include "app/output_dir.hpp"
 #include "app/progress.hpp"
 #include "app/rank_zero.hpp"
+#include "app/step_control.hpp"
 #include "fluid/adaptation.hpp"
 #include "fluid/embedded_surface.hpp"
 #include "fluid/navier_stokes.hpp"
@@ -64,6 +65,7 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   // With capsules and cfl > 0 the solver chooses dt (the time loop caps it by the coupling's
   // stability limit): time.dt does not cap it, only dt_max does.
   if (c.time.cfl > 0.0 && c.time.dt_max == 0.0 && !c.capsules.empty()) o.dt = c.time.t_end;
+  if (c.time.tolerance > 0.0) o.dt = c.time.t_end;  // the step control (step_control.hpp) caps each step
   o.cfl = c.time.cfl;
   for (int s = 0; s < 2 * D; ++s) {
     const io::BoundaryConfig& b = c.fluid.boundary[s];
@@ -178,6 +180,8 @@ class FlowRun {
       step = static_cast<long>(state.scalars.step);
       if (capsules_) capsules_->restore(state.extras, step);
       budget_->restore(state.extras);
+      for (const auto& e : state.extras)
+        if (e.name == "step_control_proposal" && e.values.size() == 1) control_.restore(e.values[0]);
       // The faces (absent from older checkpoints and ones written before any step); on N
       // ranks restored on each rank's leaves once the tree is distributed, below.
       for (const auto& e : state.extras)
@@ -231,15 +235,18 @@ class FlowRun {
     const long first_step = step;  // a restart times only its own steps
     const parallel::CollectiveCounts collectives_before = parallel::collective_counts();
     const double t_end = c.time.t_end;
-    // cfl > 0 with capsules: dt at most kSafety of the explicit coupling's measured stability
-    // limit (the implicit coupling has none).
+    // cfl > 0 or a tolerance with capsules: dt at most kSafety of the explicit coupling's
+    // measured stability limit (the implicit coupling has none).
     const bool explicit_coupling = capsules_ && c.time.coupling == io::Coupling::explicit_forces;
-    const double membrane_cap = explicit_coupling && c.time.cfl > 0.0
+    const bool solver_chooses = c.time.cfl > 0.0 || c.time.tolerance > 0.0;
+    const double membrane_cap = explicit_coupling && solver_chooses
                                     ? ibm::CapsuleCoupling::kSafety * capsules_->coupling().stability_limit()
                                     : std::numeric_limits<double>::infinity();
-    if (explicit_coupling && c.time.cfl == 0.0) warn_above_stability_limit(c.time.dt);
+    if (explicit_coupling && !solver_chooses) warn_above_stability_limit(c.time.dt);
     while (ns_.time() < t_end * (1 - 1e-12)) {
-      ns_.limit_dt(std::min(t_end - ns_.time(), membrane_cap));
+      double cap = std::min(t_end - ns_.time(), membrane_cap);
+      if (control_.enabled()) cap = std::min(cap, control_.next(ns_.time()));
+      ns_.limit_dt(cap);
       fluid::StepStats st;
       try {
         st = time_step_.run();
@@ -249,6 +256,7 @@ class FlowRun {
       }
       ++step;
       check_convergence(st, step);
+      if (control_.enabled()) control_.after_step(st.dt, capsules_->coupling().velocity_change());
       const bool last = ns_.time() >= t_end * (1 - 1e-12);
       const bool row = step % c.output.diagnostics_interval == 0 || last;
       budget_->after_step(st.dt, row);  // before the adaptation changes the grid
@@ -414,6 +422,7 @@ class FlowRun {
     // The capsules' states from their owners (collective), on rank 0, which writes them.
     std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
     for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
+    if (control_.enabled()) extras.push_back({"step_control_proposal", {1}, {control_.proposal()}});
     // The faces the next step starts from, where it reads them (midpoint nodes, carry_faces):
     // without them a restarted run starts from the face mean of the cell velocity and departs
     // from the uninterrupted one. Each rank's own leaves' rows.
@@ -553,6 +562,10 @@ class FlowRun {
   fluid::NavierStokes<D> ns_;
   fluid::Adaptation<D> adaptation_;  // the adapt stage of every step
   fluid::TimeStep<D> time_step_{ns_};  // stages 1-5; the bodies (capsules) attach to it
+  StepControl control_{{.tolerance = case_.time.tolerance,
+                        .first_dt = case_.time.dt,
+                        .dt_max = case_.time.dt_max,
+                        .instants = case_.adapt.enabled ? case_.adapt.interval_time : 0.0}};
   std::unique_ptr<CapsuleSet> capsules_;  // 3D cases with [[capsule]] tables
   std::optional<EnergyBudget<D>> budget_;  // the energy columns of diagnostics.csv
   ProgressLine progress_;

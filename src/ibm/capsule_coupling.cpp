@@ -318,6 +318,21 @@ bool CapsuleCoupling::must_adapt() const {
   return any_rank(must);
 }
 
+double CapsuleCoupling::velocity_change() const {
+  double change = 0.0;
+  for (const auto& p : capsules_) {
+    if (!p) continue;
+    if (p->previous_velocity.cols() != p->velocity.cols() || p->velocity.cols() == 0) {
+      change = -1.0;
+      break;
+    }
+    change = std::max(change, (p->velocity - p->previous_velocity).colwise().norm().maxCoeff());
+  }
+  // -1 anywhere wins: its negative sign survives a maximum taken on the negated values.
+  const double missing = ns_.tree().global_max(change < 0.0 ? 1.0 : 0.0);
+  return missing > 0.0 ? -1.0 : ns_.tree().global_max(change);
+}
+
 void CapsuleCoupling::adapted() {
   for (auto& p : capsules_)
     if (p) p->x_at_adapt = p->x;

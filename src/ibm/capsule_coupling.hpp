@@ -301,6 +301,10 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[nodiscard]] double last_dt() const { return last_dt_; }
   void set_last_dt(double dt) { last_dt_ = dt; }
   [[nodiscard]] const StageTimes& times() const { return times_; }
+  // max over every capsule's nodes of |V - V_prev|, the last step's change of the node
+  // velocities (for the step chosen by accuracy); -1 while some owned capsule has no V_prev
+  // (the first step, a restart). Collective (a maximum over the ranks).
+  [[nodiscard]] double velocity_change() const;
   // The spread force of the capsules with staggered = false, on cells (zero if none).
   [[nodiscard]] const CellVector& cell_force() const { return force_; }
   // The spread force of the capsules with staggered = true, on faces (zero if none).

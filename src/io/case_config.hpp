@@ -164,6 +164,9 @@ struct TimeConfig {
   // The membrane forces in time (ibm::CapsuleCoupling::ImplicitOptions): "explicit" at X(t),
   // "implicit" linearised at X(t + dt); the implicit solve's tolerance and most flow steps.
   Coupling coupling = Coupling::explicit_forces;
+  // > 0: the step chosen by accuracy (app/step_control.hpp), the membrane nodes' error per
+  // unit time it allows (l/V per unit time: velocity units); 0: off.
+  double tolerance = 0.0;
   double implicit_tolerance = 1e-3;
   int implicit_max_iterations = 40;
   bool operator==(const TimeConfig&) const = default;

@@ -228,6 +228,7 @@ void parse_time(TableReader r, TimeConfig& t) {
   r.read("dt_max", t.dt_max);
   r.read("node_scheme", t.node_scheme, detail::kNodeSchemes);
   r.read("coupling", t.coupling, detail::kCouplings);
+  r.read("tolerance", t.tolerance);
   r.read("implicit_tolerance", t.implicit_tolerance);
   r.read("implicit_max_iterations", t.implicit_max_iterations);
   r.finish();

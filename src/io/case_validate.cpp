@@ -280,6 +280,10 @@ void check_time(const CaseConfig& c, const Checker& ck) {
   if (!(c.time.implicit_tolerance > 0.0 && c.time.implicit_tolerance < 1.0))
     ck.fail("time.implicit_tolerance", toml_number(c.time.implicit_tolerance), "must lie in (0, 1)");
   ck.at_least("time.implicit_max_iterations", c.time.implicit_max_iterations, 1);
+  ck.non_negative("time.tolerance", c.time.tolerance);
+  if (c.time.tolerance > 0.0 && c.capsules.empty())
+    ck.fail("time.tolerance", toml_number(c.time.tolerance),
+            "bounds the membrane nodes' error, and the case has no [[capsule]]: set time.cfl for the flow's step");
   if (c.time.coupling == Coupling::implicit_forces && c.time.node_scheme != NodeScheme::euler)
     ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
             "the implicit coupling (time.coupling = \"implicit\") moves the nodes by Euler's rule: set "

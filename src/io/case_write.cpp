@@ -153,6 +153,7 @@ std::string to_toml(const CaseConfig& c) {
   line("dt_max", toml_number(c.time.dt_max));
   line("node_scheme", toml_string(to_string(c.time.node_scheme)));
   line("coupling", toml_string(to_string(c.time.coupling)));
+  line("tolerance", toml_number(c.time.tolerance));
   line("implicit_tolerance", toml_number(c.time.implicit_tolerance));
   line("implicit_max_iterations", fmt::format("{}", c.time.implicit_max_iterations));
 

@@ -449,3 +449,64 @@ TEST(AppCapsule, AdaptOnAndOffAgreeAndAdaptiveUsesFewerCells) {
 
 }  // namespace
 }  // namespace capsflow::app
+
+namespace capsflow::app {
+namespace {
+
+using namespace testing;
+
+// Issue 30: the step chosen by accuracy (time.tolerance, app/step_control.hpp) on the quick
+// relaxation, coarse (dx = 1/8, 642 nodes, radius 0.6) to t = 0.03. The controller bounds the
+// nodes' error per unit time, so the first-order error at t_end scales with the tolerance:
+// the differences of D12 between tolerances halved in turn halve too.
+TEST(AppStepControl, HalvingTheToleranceHalvesTheError) {
+  const fs::path dir = scratch("step_control");
+  std::vector<double> d12;
+  std::vector<std::size_t> steps;
+  for (const double tol : {0.1, 0.05, 0.025, 0.0125}) {
+    const fs::path out = dir / fmt::format("tol{}", tol);
+    const auto r = capsflow(std::string("run ") + CAPSFLOW_CASES_DIR +
+                                "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                                "--set capsule[0].radius=0.6 --set time.t_end=0.03 --set output.vtu=false "
+                                "--set output.diagnostics_interval=1 --set time.tolerance=" +
+                                fmt::format("{}", tol) + " --out " + out.string(),
+                            dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto table = rows_of(out / "diagnostics.csv");
+    ASSERT_EQ(table[0][2], "dt");
+    ASSERT_EQ(table[0][5], "D12");
+    EXPECT_NEAR(std::stod(table.back()[1]), 0.03, 1e-12);
+    d12.push_back(std::stod(table.back()[5]));
+    steps.push_back(table.size() - 1);
+  }
+  std::printf("D12(t = 0.03) at tolerances 0.1 / 0.05 / 0.025 / 0.0125: %.6f %.6f %.6f %.6f in %zu / %zu / %zu / %zu steps\n",
+              d12[0], d12[1], d12[2], d12[3], steps[0], steps[1], steps[2], steps[3]);
+  for (std::size_t k = 0; k + 2 < d12.size(); ++k) {
+    const double ratio = (d12[k] - d12[k + 1]) / (d12[k + 1] - d12[k + 2]);
+    std::printf("  difference ratio %.2f\n", ratio);
+    EXPECT_GT(ratio, 1.6);
+    EXPECT_LT(ratio, 2.5);
+  }
+  EXPECT_GT(steps[3], steps[0]);
+}
+
+// A run with the implicit coupling and the step control, interrupted after a checkpoint and
+// restarted, repeats the uninterrupted run to the last digit (the controller's proposal is
+// in the checkpoint; the nodes' last velocity gives the next estimate).
+TEST(AppStepControl, RestartWithTheImplicitCouplingRepeatsTheRunExactly) {
+  const fs::path dir = scratch("restart_step_control");
+  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                           "--set capsule[0].radius=0.6 --set time.t_end=0.02 --set output.vtu=false "
+                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"implicit\"' "
+                           "--set time.tolerance=0.1 --set output.checkpoint=true --set output.checkpoint_interval=8 ";
+  const auto r = capsflow(base + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto full = rows_of(dir / "full" / "diagnostics.csv");
+  ASSERT_GT(full.size(), 10u);
+  EXPECT_NE(full[3][2], full[8][2]);  // the step changed
+  expect_restart_repeats_run(dir, base, "checkpoint_000008.h5", full);
+}
+
+}  // namespace
+}  // namespace capsflow::app

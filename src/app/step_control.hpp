@@ -1,0 +1,49 @@
+#pragma once
+// The time step chosen by accuracy (issue 30, time.tolerance): the membrane nodes' error per
+// unit time, estimated after each step from Euler's node update against the trapezoidal
+// rule's, sets the next step.
+//
+// Euler moves a node by dt V^(n+1); the trapezoidal rule by dt (V^n + V^(n+1)) / 2. Their
+// difference per unit time, e = max |V^(n+1) - V^n| / 2 over the nodes, estimates Euler's
+// local error per unit time (error per unit step: the global error then scales with the
+// tolerance, first order). The next step is dt_next = dt min(2, max(1/4, 0.9 tol / e)),
+// capped by time.dt_max. A step is not rejected: a flow step cannot be taken back once the
+// adaptation followed it, so an error above the tolerance only shortens the next step (the
+// first-order error it adds is of the same order). Steps land on the multiples of
+// adapt.interval_time they cross, so adaptations happen at fixed instants whatever the steps,
+// and runs at two tolerances adapt at the same instants (studies stay comparable).
+#include <cmath>
+
+namespace capsflow::app {
+
+class StepControl {
+ public:
+  struct Options {
+    double tolerance = 0.0;  // 0: off (the step is time.dt, or chosen by cfl)
+    double first_dt = 1e-3;  // the first step (time.dt)
+    double dt_max = 0.0;     // 0: no cap
+    double instants = 0.0;   // adapt.interval_time: steps land on its multiples (0: none)
+  };
+  explicit StepControl(const Options& o) : options_(o), next_(o.first_dt) {}
+
+  [[nodiscard]] bool enabled() const { return options_.tolerance > 0.0; }
+  // The next step at time t, before the run's other caps (the end time, the explicit limit).
+  [[nodiscard]] double next(double t) const { return land(t, next_); }
+  // After a step of dt whose node velocities changed by at most `change` (negative when the
+  // nodes had no velocity before it: the first step and after a restart that kept none).
+  void after_step(double dt, double change);
+  // The estimate of the last step (0 before any).
+  [[nodiscard]] double error() const { return error_; }
+  // What a checkpoint keeps, so that a restart takes the steps the uninterrupted run takes.
+  [[nodiscard]] double proposal() const { return next_; }
+  void restore(double proposal) { next_ = proposal; }
+
+ private:
+  [[nodiscard]] double land(double t, double dt) const;
+
+  Options options_;
+  double next_;
+  double error_ = 0.0;
+};
+
+}  // namespace capsflow::app

@@ -1,0 +1,60 @@
+// The step chosen by accuracy (app/step_control.hpp): the next step from the error estimate,
+// its bounds, the landing on the adaptation instants, and its restart.
+#include "app/step_control.hpp"
+
+#include <gtest/gtest.h>
+
+namespace capsflow::app {
+namespace {
+
+TEST(StepControl, NextStepFollowsTheErrorPerUnitTime) {
+  StepControl c({.tolerance = 0.01, .first_dt = 1e-3});
+  ASSERT_TRUE(c.enabled());
+  EXPECT_EQ(c.next(0.0), 1e-3);
+  c.after_step(1e-3, -1.0);  // no estimate yet (the first step): the same step
+  EXPECT_EQ(c.next(1e-3), 1e-3);
+  c.after_step(1e-3, 0.0150);  // e = 0.0075: 0.9 x 0.01 / 0.0075 = 1.2
+  EXPECT_DOUBLE_EQ(c.error(), 0.0075);
+  EXPECT_DOUBLE_EQ(c.next(2e-3), 1.2e-3);
+  c.after_step(1.2e-3, 0.002);  // e = 0.001: growth capped at 2
+  EXPECT_DOUBLE_EQ(c.next(0.0), 2.4e-3);
+  c.after_step(2.4e-3, 1.0);  // e = 0.5: shrink capped at a quarter
+  EXPECT_DOUBLE_EQ(c.next(0.0), 6e-4);
+  c.after_step(6e-4, 0.0);  // no change at all: growth capped
+  EXPECT_DOUBLE_EQ(c.next(0.0), 1.2e-3);
+}
+
+TEST(StepControl, DtMaxCapsAndOffIsOff) {
+  StepControl c({.tolerance = 1.0, .first_dt = 1e-3, .dt_max = 1.5e-3});
+  c.after_step(1e-3, 0.0);
+  EXPECT_DOUBLE_EQ(c.next(0.0), 1.5e-3);
+  StepControl off({.tolerance = 0.0, .first_dt = 1e-3});
+  EXPECT_FALSE(off.enabled());
+  off.after_step(1e-3, 0.0);
+  EXPECT_EQ(off.proposal(), 1e-3);
+}
+
+// Steps land on the multiples of the adaptation interval they reach, so adaptations come at
+// the same instants whatever the steps.
+TEST(StepControl, StepsLandOnTheInstantsTheyCross) {
+  StepControl c({.tolerance = 1.0, .first_dt = 0.003, .instants = 0.004});
+  EXPECT_DOUBLE_EQ(c.next(0.0), 0.003);     // reaches no instant
+  EXPECT_DOUBLE_EQ(c.next(0.003), 0.001);   // would cross 0.004: lands on it
+  c.after_step(0.003, 0.0);                 // proposes 0.006
+  EXPECT_DOUBLE_EQ(c.next(0.004), 0.004);   // 0.004 + 0.006 reaches 0.008: lands on it
+  EXPECT_DOUBLE_EQ(c.next(0.005), 0.003);   // lands on 0.008
+  // A time summed with round-off just below an instant counts as on it: the next instant
+  // reached is 0.012, not one 1e-16 away.
+  EXPECT_NEAR(c.next(0.0079999999999999), 0.004, 1e-15);
+}
+
+TEST(StepControl, RestartTakesTheSameNextStep) {
+  StepControl a({.tolerance = 0.01, .first_dt = 1e-3});
+  a.after_step(1e-3, 0.004);
+  StepControl b({.tolerance = 0.01, .first_dt = 1e-3});
+  b.restore(a.proposal());
+  EXPECT_EQ(b.next(0.5), a.next(0.5));
+}
+
+}  // namespace
+}  // namespace capsflow::app
