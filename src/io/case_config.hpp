@@ -79,6 +79,9 @@ struct FluidConfig {
   // (fluid::FlowOptions::carry_faces, current_force_in_viscous): with crank_nicolson and
   // time.node_scheme = "midpoint" the coupled step is second order in time.
   bool carry_faces = false;
+  // The viscous solve sees this step's body force, not the last step's (Basilisk's lag):
+  // fluid::FlowOptions::current_force_in_viscous. carry_faces and the implicit coupling imply it.
+  bool current_force_in_viscous = false;
   std::array<BoundaryConfig, 6> boundary{};
   MultigridConfig multigrid{};
   bool operator==(const FluidConfig&) const = default;

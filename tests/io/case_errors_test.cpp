@@ -111,6 +111,14 @@ TEST(io_case_errors, ImplicitCouplingKeys) {
   EXPECT_EQ(d.time.implicit_tolerance, 1e-3);
   EXPECT_EQ(d.time.implicit_max_iterations, 40);
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncoupling = \"semi\"\n"), HasSubstr("time.coupling"));
+  EXPECT_FALSE(d.fluid.current_force_in_viscous);
+  EXPECT_EQ(d.time.tolerance, 0.0);
+  const CaseConfig e = parse_case_text(std::string(kBase) + "[fluid]\ncurrent_force_in_viscous = true\n", "c");
+  EXPECT_TRUE(e.fluid.current_force_in_viscous);
+  EXPECT_EQ(parse_case_text(to_toml(e), "c"), e);
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ntolerance = 0.05\n"),
+              HasSubstr("time.tolerance = 0.05: bounds the membrane nodes' error, and the case has no [[capsule]]"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\ntolerance = -1\n"), HasSubstr("time.tolerance = -1.0: must be >= 0"));
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\nimplicit_tolerance = 1\n"),
               HasSubstr("time.implicit_tolerance = 1.0: must lie in (0, 1)"));
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\nimplicit_max_iterations = 0\n"),
