@@ -88,7 +88,7 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : ca
     case io::NodeScheme::ab2: coupling_->set_node_scheme(ibm::NodeScheme::ab2); break;
     case io::NodeScheme::midpoint: coupling_->set_node_scheme(ibm::NodeScheme::midpoint); break;
   }
-  coupling_->set_implicit({.enabled = c.time.coupling == io::Coupling::implicit_forces,
+  coupling_->set_implicit({.enabled = c.time.coupling != io::Coupling::explicit_forces,
                            .tolerance = c.time.implicit_tolerance,
                            .max_iterations = c.time.implicit_max_iterations});
   for (std::size_t i = 0; i < c.capsules.size(); ++i) {
@@ -113,6 +113,13 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : ca
                            {.spread = kernel(k.spread_kernel), .interpolate = kernel(k.interp_kernel), .staggered = k.staggered,
                             .divergence_free = k.divergence_free});
     coupling_->set_inner_fluid(index, {.viscosity_ratio = k.viscosity_ratio, .density_ratio = k.density_ratio});
+  }
+  if (c.time.coupling == io::Coupling::automatic) {
+    // "auto": the steps the explicit coupling takes safely (at most kSafety of its measured
+    // limit, the margin of a solver-chosen step) stay explicit, one flow step each.
+    ibm::CapsuleCoupling::ImplicitOptions o = coupling_->implicit_options();
+    o.explicit_below = ibm::CapsuleCoupling::kSafety * coupling_->stability_limit();
+    coupling_->set_implicit(o);
   }
   if (coupling_->any_inner_fluid()) {
     // The flow's density and viscosity from the capsules' insides, at the start of each step.

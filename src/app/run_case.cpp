@@ -60,8 +60,8 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   // step's viscous solve: with the force a step late in it (Basilisk's lag) a grid-scale force
   // drives the cells by dt f / rho undamped, far above the response at steps longer than the
   // viscous time of a cell, and the fluid gains more energy than the force gives it.
-  o.current_force_in_viscous = c.fluid.current_force_in_viscous || c.fluid.carry_faces ||
-                               c.time.coupling == io::Coupling::implicit_forces;
+  o.current_force_in_viscous =
+      c.fluid.current_force_in_viscous || c.fluid.carry_faces || c.time.coupling != io::Coupling::explicit_forces;
   o.dt = c.time.cfl > 0.0 && c.time.dt_max > 0.0 ? c.time.dt_max : c.time.dt;
   // With capsules and cfl > 0 the solver chooses dt (the time loop caps it by the coupling's
   // stability limit): time.dt does not cap it, only dt_max does.
@@ -339,8 +339,11 @@ class FlowRun {
                      static_cast<long long>(adaptation_.forced_by_bodies()));
         const auto& implicit = capsules_->coupling().implicit_stats();
         if (implicit.steps > 0)
-          std::fprintf(stderr, "implicit coupling: %.2f flow steps a step besides its two for the solve, at most %d\n",
-                       double(implicit.products) / double(implicit.steps), implicit.most_products);
+          std::fprintf(stderr,
+                       "implicit coupling: %lld of %.0f steps implicit, %.2f flow steps each besides its two for the "
+                       "solve, at most %d\n",
+                       static_cast<long long>(implicit.steps), n, double(implicit.products) / double(implicit.steps),
+                       implicit.most_products);
       }
     }
   }

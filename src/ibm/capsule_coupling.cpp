@@ -545,6 +545,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
 // (X*, or X), on one tree: the adaptation comes after the step.
 void CapsuleCoupling::forces() {
   const int step = static_cast<int>(steps_ + 1);
+  implicit_step_ = implicit_.enabled && num_capsules() > 0 && !(ns_.stable_dt() <= implicit_.explicit_below);
   if (distributed()) {
     distributed_forces(step);
     return;

@@ -281,6 +281,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
     bool enabled = false;
     double tolerance = 1e-3;  // FGMRES: |residual| / |dt J u_explicit|
     int max_iterations = 40;  // products (flow steps) before the step fails
+    // Steps no longer than this are taken explicitly (0: none): with a step chosen by
+    // accuracy, the short steps of a fast transient cost one flow step, the long ones stay stable.
+    double explicit_below = 0.0;
   };
   // Throws std::invalid_argument for a tolerance outside (0, 1), max_iterations < 1, or a flow
   // without FlowOptions::current_force_in_viscous (the force a step late in the viscous solve
@@ -294,7 +297,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
     int most_products = 0;      // in one step
   };
   [[nodiscard]] const ImplicitStats& implicit_stats() const { return implicit_stats_; }
-  [[nodiscard]] bool implicit() const override { return implicit_.enabled && num_capsules() > 0; }
+  // Whether this step is implicit (decided at its forces stage from the step's length).
+  [[nodiscard]] bool implicit() const override { return implicit_step_; }
   void correct(const std::function<fluid::StepStats()>& rerun) override;
   // dt of the last step (0 before the first: that step is Euler). A checkpoint keeps it with
   // each capsule's velocity, so that a restarted run takes the same AB2 steps.
@@ -455,6 +459,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   fluid::FaceField<3> start_faces_;       // midpoint scheme: u^n on faces at the first step and after a restart
   fluid::NavierStokes<3>::FaceForce background_;
   ImplicitOptions implicit_;
+  bool implicit_step_ = false;  // implicit(): this step's
   ImplicitStats implicit_stats_;
   double implicit_seconds_ = 0.0;  // inside correct(), besides its flow steps (see motion)
 };

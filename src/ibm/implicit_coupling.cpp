@@ -26,6 +26,8 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 void CapsuleCoupling::set_implicit(const ImplicitOptions& o) {
   if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
     throw std::invalid_argument(fmt::format("implicit coupling: tolerance = {} must lie in (0, 1)", o.tolerance));
+  if (!(o.explicit_below >= 0.0))
+    throw std::invalid_argument(fmt::format("implicit coupling: explicit_below = {} must be >= 0", o.explicit_below));
   if (o.max_iterations < 1)
     throw std::invalid_argument(fmt::format("implicit coupling: max_iterations = {} must be >= 1", o.max_iterations));
   if (o.enabled && !ns_.options().current_force_in_viscous)

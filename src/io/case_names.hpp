@@ -31,8 +31,9 @@ inline constexpr NameTable<KernelType, 3> kKernelTypes{{{KernelType::cosine, "co
 inline constexpr NameTable<NodeScheme, 3> kNodeSchemes{{{NodeScheme::euler, "euler"},
                                                         {NodeScheme::ab2, "ab2"},
                                                         {NodeScheme::midpoint, "midpoint"}}};
-inline constexpr NameTable<Coupling, 2> kCouplings{{{Coupling::explicit_forces, "explicit"},
-                                                    {Coupling::implicit_forces, "implicit"}}};
+inline constexpr NameTable<Coupling, 3> kCouplings{{{Coupling::explicit_forces, "explicit"},
+                                                    {Coupling::implicit_forces, "implicit"},
+                                                    {Coupling::automatic, "auto"}}};
 
 inline constexpr NameTable<SolidShape, 5> kSolidShapes{{{SolidShape::box, "box"},
                                                         {SolidShape::sphere, "sphere"},

@@ -284,7 +284,7 @@ void check_time(const CaseConfig& c, const Checker& ck) {
   if (c.time.tolerance > 0.0 && c.capsules.empty())
     ck.fail("time.tolerance", toml_number(c.time.tolerance),
             "bounds the membrane nodes' error, and the case has no [[capsule]]: set time.cfl for the flow's step");
-  if (c.time.coupling == Coupling::implicit_forces && c.time.node_scheme != NodeScheme::euler)
+  if (c.time.coupling != Coupling::explicit_forces && c.time.node_scheme != NodeScheme::euler)
     ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
             "the implicit coupling (time.coupling = \"implicit\") moves the nodes by Euler's rule: set "
             "time.node_scheme = \"euler\"");

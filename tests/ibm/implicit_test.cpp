@@ -192,6 +192,30 @@ TEST(ImplicitCoupling, CurrentForceInTheViscousSolveStabilisesTheExplicitCouplin
   }
 }
 
+// time.coupling = "auto": a step no longer than explicit_below is the explicit coupling's (one
+// flow step), a longer one the implicit coupling's, to the last bit.
+TEST(ImplicitCoupling, StepsBelowTheThresholdAreExplicit) {
+  const SeedRun r{.max_level = 4, .dt = 1e-3, .radius = 0.6, .mesh_level = 3, .current_force_in_viscous = true};
+  const auto run = [&](bool enabled, double explicit_below) {
+    auto s = test::seed_setup(r);
+    s.coupling->set_implicit({.enabled = enabled, .explicit_below = explicit_below});
+    for (int k = 0; k < 4; ++k) (void)s.step();
+    return std::pair{Eigen::Matrix3Xd(s.coupling->capsule(0).x), s.coupling->implicit_stats().steps};
+  };
+  const auto [x_explicit, none] = run(false, 0.0);
+  const auto [x_implicit, all] = run(true, 0.0);
+  const auto [x_auto_explicit, auto_none] = run(true, 2e-3);
+  const auto [x_auto_implicit, auto_all] = run(true, 5e-4);
+  EXPECT_EQ(none, 0);
+  EXPECT_EQ(all, 4);
+  EXPECT_EQ(auto_none, 0);
+  EXPECT_EQ(auto_all, 4);
+  EXPECT_EQ((x_auto_explicit - x_explicit).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((x_auto_implicit - x_implicit).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((x_implicit - x_explicit).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_THROW(test::seed_setup(r).coupling->set_implicit({.enabled = true, .explicit_below = -1.0}), std::invalid_argument);
+}
+
 TEST(ImplicitCoupling, NeedsTheCurrentForceInTheViscousSolve) {
   auto s = test::seed_setup(SeedRun{.max_level = 4, .radius = 0.6, .mesh_level = 3});
   EXPECT_THROW(s.coupling->set_implicit({.enabled = true}), std::invalid_argument);

@@ -111,6 +111,7 @@ TEST(io_case_errors, ImplicitCouplingKeys) {
   EXPECT_EQ(d.time.implicit_tolerance, 1e-3);
   EXPECT_EQ(d.time.implicit_max_iterations, 40);
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncoupling = \"semi\"\n"), HasSubstr("time.coupling"));
+  EXPECT_EQ(parse_case_text(std::string(kBase) + "[time]\ncoupling = \"auto\"\n", "c").time.coupling, Coupling::automatic);
   EXPECT_FALSE(d.fluid.current_force_in_viscous);
   EXPECT_EQ(d.time.tolerance, 0.0);
   const CaseConfig e = parse_case_text(std::string(kBase) + "[fluid]\ncurrent_force_in_viscous = true\n", "c");
