@@ -64,6 +64,9 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   const auto block = [&](Eigen::VectorXd& v, std::size_t i) {
     return Eigen::Map<Eigen::Matrix3Xd>(v.data() + offsets[i], 3, (offsets[i + 1] - offsets[i]) / 3);
   };
+  const auto cblock = [&](const Eigen::VectorXd& v, std::size_t i) {
+    return Eigen::Map<const Eigen::Matrix3Xd>(v.data() + offsets[i], 3, (offsets[i + 1] - offsets[i]) / 3);
+  };
   // Per capsule in floating point, then exactly over the capsules (and ranks): the same
   // bits on any number of ranks, the capsules' blocks being whole on their owners.
   const auto dot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
@@ -97,14 +100,18 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
     for (std::size_t i = 0; i < ids.size(); ++i) block(v, i) = capsule(ids[i]).response;
     return v;
   };
-  // Spreads F - K v and takes the flow step again.
-  const auto step_with = [&](const Eigen::VectorXd& v) {
+  // K v, capsule by capsule.
+  const auto stiffness_times = [&](const Eigen::VectorXd& v) {
+    Eigen::VectorXd kv(offsets.back());
     for (std::size_t i = 0; i < ids.size(); ++i) {
-      const Eigen::Map<const Eigen::VectorXd> kv_in(v.data() + offsets[i], offsets[i + 1] - offsets[i]);
-      Eigen::Matrix3Xd& f = capsule(ids[i]).forces;
-      Eigen::Map<Eigen::VectorXd>(f.data(), f.size()) =
-          Eigen::Map<const Eigen::VectorXd>(start_forces[i].data(), f.size()) - *stiffness[i] * kv_in;
+      const Eigen::Map<const Eigen::VectorXd> vi(v.data() + offsets[i], offsets[i + 1] - offsets[i]);
+      kv.segment(offsets[i], offsets[i + 1] - offsets[i]) = *stiffness[i] * vi;
     }
+    return kv;
+  };
+  // Spreads F - change and takes the flow step again.
+  const auto step_with = [&](const Eigen::VectorXd& change) {
+    for (std::size_t i = 0; i < ids.size(); ++i) capsule(ids[i]).forces = start_forces[i] - cblock(change, i);
     // The positions, so this step's stencil boxes, stay; on N ranks the forces are routed
     // with the positions.
     if (distributed()) spreading();
@@ -126,15 +133,11 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   double gain = 1.0 / (flow_options.density * h * h * h / dt + 6.0 * std::numbers::pi * mu * h);
   const double target = 10.0 * std::sqrt(dot(explicit_velocity, explicit_velocity));
   const auto apply = [&](const Eigen::VectorXd& v) {
-    Eigen::VectorXd kv(offsets.back());
-    for (std::size_t i = 0; i < ids.size(); ++i) {
-      const Eigen::Map<const Eigen::VectorXd> vi(v.data() + offsets[i], offsets[i + 1] - offsets[i]);
-      kv.segment(offsets[i], offsets[i + 1] - offsets[i]) = *stiffness[i] * vi;
-    }
+    const Eigen::VectorXd kv = stiffness_times(v);
     const double kv_norm = std::sqrt(dot(kv, kv));
     if (!(kv_norm > 0.0)) return Eigen::VectorXd(v);  // K v = 0: a rigid motion, no force
     const double s = target / (gain * kv_norm);
-    step_with(s * v);
+    step_with(s * kv);
     const Eigen::VectorXd response = explicit_velocity - interpolated();
     gain = std::max(std::sqrt(dot(response, response)) / (s * kv_norm), 1e-300);
     return Eigen::VectorXd(v + (dt / s) * response);
@@ -151,7 +154,7 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
                            solved.iterations, solved.residual, implicit_.tolerance),
          Cause::implicit_solve);
   // The step itself, with F - K dX.
-  step_with(displacement);
+  step_with(stiffness_times(displacement));
   // Besides its flow steps: the stiffness (membrane), the spreadings (spreading) and the
   // interpolations with the solve's own work (interpolation).
   const double outside_flow = seconds_since(t0) - flow_seconds;
