@@ -1,5 +1,5 @@
 // Membrane benchmarks: one force evaluation (energy and nodal forces), one tangent stiffness
-// and one evaluation of the shape diagnostics, on the seed ellipsoid, Skalak C = 1, for the seed's 10 242- and
+// (exact and positive) and one evaluation of the shape diagnostics, on the seed ellipsoid, Skalak C = 1, for the seed's 10 242- and
 // 40 962-node meshes, P1 and P2. Threads: whatever OpenMP is given (OMP_NUM_THREADS).
 // Counters: nodes, nodes_per_s, s_per_eval, threads, baseline_s (one dense 7-point Jacobi
 // sweep over the seed's 1 048 576 fluid cells, measured once per benchmark with the same
@@ -50,20 +50,25 @@ void forces(benchmark::State& state, Order order, int level) {
 }
 
 // The tangent stiffness K = d2E/dX2 (assembled into its fixed pattern; the first call, which
-// builds the pattern, is outside the timing).
-void stiffness(benchmark::State& state, Order order, int level) {
+// builds the pattern, is outside the timing), exact or its positive variant.
+void stiffness_of(benchmark::State& state, Order order, int level, StiffnessPart part) {
   MembraneModel model(make_icosphere({.order = order, .level = level, .radius = 0.85}),
                       {.kind = LawKind::skalak, .gs = 1.0, .c = 1.0});
   const Eigen::Matrix3Xd x = seed_ellipsoid(model.mesh().nodes, Eigen::Vector3d::Zero());
-  (void)model.stiffness(x);
+  (void)model.stiffness(x, part);
   double seconds = 0.0;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
-    benchmark::DoNotOptimize(model.stiffness(x).valuePtr());
+    benchmark::DoNotOptimize(model.stiffness(x, part).valuePtr());
     benchmark::ClobberMemory();
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   report(state, model.mesh().node_count(), seconds);
+}
+
+void stiffness(benchmark::State& state, Order order, int level) { stiffness_of(state, order, level, StiffnessPart::exact); }
+void positive_stiffness(benchmark::State& state, Order order, int level) {
+  stiffness_of(state, order, level, StiffnessPart::positive);
 }
 
 void diagnostics(benchmark::State& state, Order order, int level) {
@@ -80,7 +85,8 @@ void diagnostics(benchmark::State& state, Order order, int level) {
 
 const bool registered = [] {
   for (const auto& [kind, fn] :
-       {std::pair{"forces", &forces}, std::pair{"stiffness", &stiffness}, std::pair{"diagnostics", &diagnostics}})
+       {std::pair{"forces", &forces}, std::pair{"stiffness", &stiffness}, std::pair{"positive_stiffness", &positive_stiffness},
+        std::pair{"diagnostics", &diagnostics}})
     for (const Order order : {Order::p1, Order::p2})
       for (const int level : {5, 6}) {
         const std::string name = std::string("membrane/") + kind + (order == Order::p1 ? "/P1/" : "/P2/") +

