@@ -1,6 +1,7 @@
 #include "app/step_control.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace capsflow::app {
 

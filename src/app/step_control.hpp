@@ -12,8 +12,6 @@
 // first-order error it adds is of the same order). Steps land on the multiples of
 // adapt.interval_time they cross, so adaptations happen at fixed instants whatever the steps,
 // and runs at two tolerances adapt at the same instants (studies stay comparable).
-#include <cmath>
-
 namespace capsflow::app {
 
 class StepControl {
