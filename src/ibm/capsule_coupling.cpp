@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <variant>
 
@@ -319,18 +320,17 @@ bool CapsuleCoupling::must_adapt() const {
 }
 
 double CapsuleCoupling::velocity_change() const {
+  // A capsule without V_prev counts as infinite, so one maximum over the ranks carries it
+  // (a change that is not finite stopped the step before: advance_nodes checks V).
+  constexpr double kMissing = std::numeric_limits<double>::infinity();
   double change = 0.0;
   for (const auto& p : capsules_) {
     if (!p) continue;
-    if (p->previous_velocity.cols() != p->velocity.cols() || p->velocity.cols() == 0) {
-      change = -1.0;
-      break;
-    }
-    change = std::max(change, (p->velocity - p->previous_velocity).colwise().norm().maxCoeff());
+    const bool missing = p->previous_velocity.cols() != p->velocity.cols() || p->velocity.cols() == 0;
+    change = std::max(change, missing ? kMissing : (p->velocity - p->previous_velocity).colwise().norm().maxCoeff());
   }
-  // -1 anywhere wins: its negative sign survives a maximum taken on the negated values.
-  const double missing = ns_.tree().global_max(change < 0.0 ? 1.0 : 0.0);
-  return missing > 0.0 ? -1.0 : ns_.tree().global_max(change);
+  const double global = ns_.tree().global_max(change);
+  return global == kMissing ? -1.0 : global;
 }
 
 void CapsuleCoupling::adapted() {

@@ -61,6 +61,8 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
       ids.push_back(k);
       offsets.push_back(offsets.back() + capsule(k).x.size());
     }
+  // Capsule i's part of a node vector, flat and as 3 x n.
+  const auto part = [&](auto& v, std::size_t i) { return v.segment(offsets[i], offsets[i + 1] - offsets[i]); };
   const auto block = [&](Eigen::VectorXd& v, std::size_t i) {
     return Eigen::Map<Eigen::Matrix3Xd>(v.data() + offsets[i], 3, (offsets[i + 1] - offsets[i]) / 3);
   };
@@ -71,8 +73,7 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   // bits on any number of ranks, the capsules' blocks being whole on their owners.
   const auto dot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
     parallel::ExactSum sum;
-    for (std::size_t i = 0; i < ids.size(); ++i)
-      sum.add(a.segment(offsets[i], offsets[i + 1] - offsets[i]).dot(b.segment(offsets[i], offsets[i + 1] - offsets[i])));
+    for (std::size_t i = 0; i < ids.size(); ++i) sum.add(part(a, i).dot(part(b, i)));
     return ns_.tree().global_sum(sum);
   };
 
@@ -103,10 +104,7 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   // K v, capsule by capsule.
   const auto stiffness_times = [&](const Eigen::VectorXd& v) {
     Eigen::VectorXd kv(offsets.back());
-    for (std::size_t i = 0; i < ids.size(); ++i) {
-      const Eigen::Map<const Eigen::VectorXd> vi(v.data() + offsets[i], offsets[i + 1] - offsets[i]);
-      kv.segment(offsets[i], offsets[i + 1] - offsets[i]) = *stiffness[i] * vi;
-    }
+    for (std::size_t i = 0; i < ids.size(); ++i) part(kv, i) = *stiffness[i] * part(v, i);
     return kv;
   };
   // Spreads F - change and takes the flow step again.

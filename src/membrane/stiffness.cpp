@@ -61,17 +61,13 @@ void MembraneModel::assemble_stiffness(const Law& law, const Eigen::Matrix3Xd& x
     ElementStiffness<Nn> k;
 #pragma omp for schedule(static)
     for (std::int64_t slot = 0; slot < n_elements; ++slot) {
-      const auto xe = gather<Nn>(x, conn + slot * Nn);
-      const Eigen::Vector3d chord = chord_normal<Nn>(xe);
-      bool ok = true;
-      for (int q = 0; q < nq; ++q)
-        ok = ok && acceptable<Nn>(point_kinematics<Nn>(xe, derivatives_at<Nn>(d, q), ref[slot * nq + q]), chord);
-      if (!ok) {
+      ElementStatus status;
+      element_stiffness<Nn>(law, gather<Nn>(x, conn + slot * Nn), d, ref + slot * nq, nq, positive, k, status);
+      if (!status.ok) {
 #pragma omp critical(capsflow_membrane_bad_stiffness_element)
         if (bad_slot < 0 || slot < bad_slot) bad_slot = slot;
         continue;
       }
-      element_stiffness<Nn>(law, xe, d, ref + slot * nq, nq, positive, k);
       std::copy(k.data(), k.data() + kEntries, buffer + slot * kEntries);
     }
 #pragma omp for schedule(static)

@@ -70,14 +70,20 @@ template <MembraneLaw Law>
 }
 
 // Writes the element's stiffness into k (overwritten), rows and columns 3 i + component;
-// with `positive`, from the positive parts of the points' H.
+// with `positive`, from the positive parts of the points' H. A collapsed or folded element
+// clears status.ok (as element_forces does).
 template <int Nn, MembraneLaw Law>
 inline void element_stiffness(const Law& law, const ElementNodes<Nn>& x, const ShapeDerivatives<Nn>* d,
-                              const ReferencePoint* ref, int nq, bool positive, ElementStiffness<Nn>& k) {
+                              const ReferencePoint* ref, int nq, bool positive, ElementStiffness<Nn>& k,
+                              ElementStatus& status) {
   k.setZero();
+  const Eigen::Vector3d chord = chord_normal<Nn>(x);
   for (int q = 0; q < nq; ++q) {
     const ShapeDerivatives<Nn>& dq = derivatives_at<Nn>(d, q);
-    TangentHessian h = tangent_hessian(law, point_kinematics<Nn>(x, dq, ref[q]), ref[q]);
+    const auto p = point_kinematics<Nn>(x, dq, ref[q]);
+    status.ok = status.ok && acceptable<Nn>(p, chord);
+    if (!status.ok) return;
+    TangentHessian h = tangent_hessian(law, p, ref[q]);
     if (positive) h = positive_part(h);
     for (int i = 0; i < Nn; ++i) {
       const double i1 = dq[0][i], i2 = dq[1][i];
