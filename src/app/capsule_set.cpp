@@ -87,6 +87,7 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : ca
     case io::NodeScheme::euler: coupling_->set_node_scheme(ibm::NodeScheme::euler); break;
     case io::NodeScheme::ab2: coupling_->set_node_scheme(ibm::NodeScheme::ab2); break;
     case io::NodeScheme::midpoint: coupling_->set_node_scheme(ibm::NodeScheme::midpoint); break;
+    case io::NodeScheme::bdf2: coupling_->set_node_scheme(ibm::NodeScheme::bdf2); break;
   }
   coupling_->set_implicit({.enabled = c.time.coupling != io::Coupling::explicit_forces,
                            .tolerance = c.time.implicit_tolerance,
@@ -237,6 +238,11 @@ std::vector<io::ExtraArray> CapsuleSet::checkpoint_extras() const {
     const auto& v = s.velocity;
     if (v.cols() == x.cols())
       extras.push_back({fmt::format("capsule_{}_velocity", i), {std::size_t(v.cols()), 3}, {v.data(), v.data() + v.size()}});
+    // The last step's motion: the next step's BDF2 needs it.
+    const auto& m = s.motion;
+    if (m.cols() == x.cols())
+      extras.push_back(
+          {fmt::format("capsule_{}_motion", i), {std::size_t(m.cols()), 3}, {m.data(), m.data() + m.size()}});
   }
   extras.push_back({"coupling_steps_since_adapt", {1}, {static_cast<double>(coupling_->steps_since_adapt())}});
   extras.push_back({"coupling_last_dt", {1}, {coupling_->last_dt()}});
@@ -266,12 +272,14 @@ void CapsuleSet::restore(const std::vector<io::ExtraArray>& extras, std::int64_t
     for (const auto& e : extras)
       if (e.name == fmt::format("capsule_{}_work", i) && e.values.size() == 1) coupling_->capsule(i).work = e.values[0];
     // Without it (an older checkpoint) the first step after the restart is Euler.
-    Eigen::Matrix3Xd& v = coupling_->capsule(i).velocity;
-    for (const auto& e : extras)
-      if (e.name == fmt::format("capsule_{}_velocity", i) && e.values.size() == std::size_t(x.size())) {
-        v.resize(3, x.cols());
-        std::copy(e.values.begin(), e.values.end(), v.data());
-      }
+    // Likewise BDF2's.
+    for (auto [stem, m] : {std::pair{"velocity", &coupling_->capsule(i).velocity},
+                           std::pair{"motion", &coupling_->capsule(i).motion}})
+      for (const auto& e : extras)
+        if (e.name == fmt::format("capsule_{}_{}", i, stem) && e.values.size() == std::size_t(x.size())) {
+          m->resize(3, x.cols());
+          std::copy(e.values.begin(), e.values.end(), m->data());
+        }
   }
   coupling_->set_steps_since_adapt(0);
   for (const auto& e : extras)

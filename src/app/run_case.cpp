@@ -62,6 +62,9 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   // viscous time of a cell, and the fluid gains more energy than the force gives it.
   o.current_force_in_viscous =
       c.fluid.current_force_in_viscous || c.fluid.carry_faces || c.time.coupling != io::Coupling::explicit_forces;
+  // BDF2 nodes need the flow's BDF2 steps with the same weights: with backward Euler's the
+  // flow's own error keeps the coupled step first order.
+  o.bdf2 = c.time.node_scheme == io::NodeScheme::bdf2;
   o.dt = c.time.cfl > 0.0 && c.time.dt_max > 0.0 ? c.time.dt_max : c.time.dt;
   // With capsules and cfl > 0 the solver chooses dt (the time loop caps it by the coupling's
   // stability limit): time.dt does not cap it, only dt_max does.
@@ -182,7 +185,10 @@ class FlowRun {
       if (capsules_) capsules_->restore(state.extras, step);
       budget_->restore(state.extras);
       for (const auto& e : state.extras)
-        if (e.name == "step_control_proposal" && e.values.size() == 1) control_.restore(e.values[0]);
+        if (e.name == "step_control_proposal" && e.values.size() == 1)
+          control_.restore(e.values[0]);
+        else if (e.name == "flow_history_dt" && e.values.size() == 1)
+          ns_.set_history_dt(e.values[0]);
       // The faces (absent from older checkpoints and ones written before any step); on N
       // ranks restored on each rank's leaves once the tree is distributed, below.
       for (const auto& e : state.extras)
@@ -257,7 +263,10 @@ class FlowRun {
       }
       ++step;
       check_convergence(st, step);
-      if (control_.enabled()) control_.after_step(st.dt, capsules_->coupling().velocity_change());
+      if (control_.enabled()) {
+        const auto e = capsules_->coupling().node_error();
+        control_.after_step(st.dt, e.error, e.order);
+      }
       const bool last = ns_.time() >= t_end * (1 - 1e-12);
       const bool row = step % c.output.diagnostics_interval == 0 || last;
       budget_->after_step(st.dt, row);  // before the adaptation changes the grid
@@ -427,6 +436,8 @@ class FlowRun {
     std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
     for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
     if (control_.enabled()) extras.push_back({"step_control_proposal", {1}, {control_.proposal()}});
+    if (case_.time.node_scheme == io::NodeScheme::bdf2)
+      extras.push_back({"flow_history_dt", {1}, {ns_.history_dt()}});
     // The faces the next step starts from, where it reads them (midpoint nodes, carry_faces):
     // without them a restarted run starts from the face mean of the cell velocity and departs
     // from the uninterrupted one. Each rank's own leaves' rows.

@@ -5,14 +5,15 @@
 
 namespace capsflow::app {
 
-void StepControl::after_step(double dt, double change) {
+void StepControl::after_step(double dt, double error, int order) {
   if (!enabled()) return;
-  if (change < 0.0) {  // no estimate: the same step again
+  if (error < 0.0) {  // no estimate: the same step again
     next_ = dt;
     return;
   }
-  error_ = 0.5 * change;
-  const double factor = error_ > 0.0 ? std::clamp(0.9 * options_.tolerance / error_, 0.25, 2.0) : 2.0;
+  error_ = error;
+  const double factor =
+      error_ > 0.0 ? std::clamp(0.9 * std::pow(options_.tolerance / error_, 1.0 / order), 0.25, 2.0) : 2.0;
   next_ = dt * factor;
   if (options_.dt_max > 0.0) next_ = std::min(next_, options_.dt_max);
 }

@@ -1,13 +1,15 @@
 #pragma once
 // The time step chosen by accuracy (issue 30, time.tolerance): the membrane nodes' error per
-// unit time, estimated after each step from Euler's node update against the trapezoidal
-// rule's, sets the next step.
+// unit time, estimated after each step against the trapezoidal rule (ibm::CapsuleCoupling::
+// node_error), sets the next step.
 //
 // Euler moves a node by dt V^(n+1); the trapezoidal rule by dt (V^n + V^(n+1)) / 2. Their
 // difference per unit time, e = max |V^(n+1) - V^n| / 2 over the nodes, estimates Euler's
 // local error per unit time (error per unit step: the global error then scales with the
-// tolerance, first order). The next step is dt_next = dt min(2, max(1/4, 0.9 tol / e)),
-// capped by time.dt_max. A step is not rejected: a flow step cannot be taken back once the
+// tolerance, first order). BDF2's estimate is its error constant times the trapezoidal
+// rule's defect. The next step is dt_next = dt min(2, max(1/4, 0.9 (tol / e)^(1/p))), p the
+// step's order (BDF2's variable steps stay zero-stable below a ratio of 1 + sqrt 2), capped
+// by time.dt_max. A step is not rejected: a flow step cannot be taken back once the
 // adaptation followed it, so an error above the tolerance only shortens the next step (the
 // first-order error it adds is of the same order). Steps land on the multiples of
 // adapt.interval_time they cross, so adaptations happen at fixed instants whatever the steps,
@@ -27,9 +29,9 @@ class StepControl {
   [[nodiscard]] bool enabled() const { return options_.tolerance > 0.0; }
   // The next step at time t, before the run's other caps (the end time, the explicit limit).
   [[nodiscard]] double next(double t) const { return land(t, next_); }
-  // After a step of dt whose node velocities changed by at most `change` (negative when the
-  // nodes had no velocity before it: the first step and after a restart that kept none).
-  void after_step(double dt, double change);
+  // After a step of dt whose node error per unit time was `error`, by a scheme of `order`
+  // (a negative error: no estimate, the first step and after a restart that kept none).
+  void after_step(double dt, double error, int order = 1);
   // The estimate of the last step (0 before any).
   [[nodiscard]] double error() const { return error_; }
   // What a checkpoint keeps, so that a restart takes the steps the uninterrupted run takes.

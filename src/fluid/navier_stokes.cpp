@@ -28,6 +28,10 @@ void validate(const FlowOptions<D>& o) {
   positive(o.density, "fluid.density");
   if (o.viscosity != -1.0) positive(o.viscosity, "fluid.viscosity");
   positive(o.dt, "time.dt");
+  if (o.bdf2 && (o.crank_nicolson || o.carry_faces || !o.current_force_in_viscous))
+    throw std::invalid_argument(
+        "the flow's BDF2 steps (time.node_scheme = \"bdf2\") take this step's force in the viscous solve, and "
+        "neither fluid.crank_nicolson nor fluid.carry_faces");
   if (!(o.cfl >= 0.0)) throw std::invalid_argument(fmt::format("time.cfl = {}: must be >= 0", o.cfl));
 }
 
@@ -45,7 +49,30 @@ NavierStokes<D>::NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options)
   pf_ = tree_.add_field({.name = "pf", .bc = conditions_.pressure});
   for (int d = 0; d < D; ++d)
     g_[d] = tree_.add_field({.name = fmt::format("g.{}", kAxis[d]), .bc = zero_gradient_});
+  if (options_.bdf2) {
+    for (int d = 0; d < D; ++d)
+      u_prev_[d] = tree_.add_field({.name = fmt::format("u.prev.{}", kAxis[d]), .bc = conditions_.velocity[d]});
+    dp_ = tree_.add_field({.name = "dp", .bc = conditions_.pressure, .saved = false});
+  }
   resize_scratch();
+}
+
+template <int D>
+double NavierStokes<D>::extrapolate_start(double dt) {
+  const bool history = history_dt_ > 0.0;
+  const double w = history ? dt / history_dt_ : 0.0;
+  const double c = w * w / (1.0 + 2.0 * w);
+  for (int d = 0; d < D; ++d) {
+    const std::span<double> u = tree_.values(u_[d]);
+    const std::span<double> prev = tree_.values(u_prev_[d]);
+    tree_.for_each_owned_leaf([&](Index i) {
+      const double now = u[i];
+      if (history) u[i] = now + c * (now - prev[i]);
+      prev[i] = now;
+    });
+  }
+  history_dt_ = dt;
+  return history ? dt * (1.0 + w) / (1.0 + 2.0 * w) : dt;
 }
 
 template <int D>
@@ -161,6 +188,8 @@ StepStats NavierStokes<D>::step() {
   CAPSFLOW_ASSERT(leaves_finite(), "NavierStokes::step: the velocity or pressure entering the step is not finite");
   StepStats stats;
   const double dt = stable_dt();
+  // The stages' step: dt, or BDF2's b dt from the extrapolated start.
+  const double h = options_.bdf2 ? extrapolate_start(dt) : dt;
   // Stages that read u^n see boundary values at t^n; the implicit ones solve for t^n+1.
   boundary_time_ = time_;
   carrying_ = options_.carry_faces && (faces_current_ || faces_carried_);
@@ -172,7 +201,7 @@ StepStats NavierStokes<D>::step() {
     }
   }
   if (properties_) update_properties();
-  if (!options_.stokes) prediction_and_advection(dt, stats);
+  if (!options_.stokes) prediction_and_advection(h, stats);
   boundary_time_ = time_ + dt;
   if (options_.current_force_in_viscous && face_force_) {
     // The pressure's halos as the last solve left them (quadratic): after an adapt or a
@@ -180,11 +209,11 @@ StepStats NavierStokes<D>::step() {
     // uninterrupted one (issue 17). Restores what the solve wrote, so otherwise a no-op.
     tree_.sync(tree_.values(p_), conditions_.pressure, tree::Prolongation::quadratic);
     evaluate_force();
-    centred_gradient(dt, /*only_g=*/true);
+    centred_gradient(h, /*only_g=*/true);
   }
-  viscosity(dt, stats);
-  acceleration(dt);
-  projection(dt, stats);
+  viscosity(h, stats);
+  acceleration(h);
+  projection(h, stats);
   time_ += dt;
   last_dt_ = dt;
   stats.t = time_;
@@ -198,9 +227,12 @@ typename NavierStokes<D>::State NavierStokes<D>::save_state() const {
   for (int d = 0; d < D; ++d)
     for (const tree::FieldId f : {u_[d], g_[d]}) s.fields.emplace_back(tree_.values(f).begin(), tree_.values(f).end());
   for (const tree::FieldId f : {p_, pf_}) s.fields.emplace_back(tree_.values(f).begin(), tree_.values(f).end());
+  if (options_.bdf2)
+    for (int d = 0; d < D; ++d) s.fields.emplace_back(tree_.values(u_prev_[d]).begin(), tree_.values(u_prev_[d]).end());
   s.faces = uf_;
   s.time = time_;
   s.last_dt = last_dt_;
+  s.history_dt = history_dt_;
   s.faces_current = faces_current_;
   s.faces_carried = faces_carried_;
   return s;
@@ -209,7 +241,7 @@ typename NavierStokes<D>::State NavierStokes<D>::save_state() const {
 template <int D>
 void NavierStokes<D>::restore_state(const State& s) {
   const auto cells = static_cast<std::size_t>(tree_.num_cells());
-  if (s.fields.size() != 2 * D + 2 || s.fields[0].size() != cells)
+  if (s.fields.size() != (options_.bdf2 ? 3 * D + 2 : 2 * D + 2) || s.fields[0].size() != cells)
     throw std::invalid_argument("NavierStokes::restore_state: the state was saved on another tree");
   std::size_t k = 0;
   const auto put = [&](tree::FieldId f) {
@@ -222,9 +254,12 @@ void NavierStokes<D>::restore_state(const State& s) {
   }
   put(p_);
   put(pf_);
+  if (options_.bdf2)
+    for (int d = 0; d < D; ++d) put(u_prev_[d]);
   uf_ = s.faces;
   time_ = s.time;
   last_dt_ = s.last_dt;
+  history_dt_ = s.history_dt;
   faces_current_ = s.faces_current;
   faces_carried_ = s.faces_carried;
 }
@@ -331,6 +366,10 @@ void NavierStokes<D>::acceleration(double dt) {
         force_[d][hi] = 0.0;
         return;
       }
+      if (options_.bdf2) {  // the face mean of the cells' acceleration (FlowOptions::bdf2)
+        uf_[d][hi] += dt * 0.5 * (tree_.values(g_[d])[lo] + tree_.values(g_[d])[hi]);
+        return;
+      }
       uf_[d][hi] += dt * alpha(d, lo, hi, lv) * force_[d][hi];
     });
   });
@@ -368,7 +407,17 @@ int NavierStokes<D>::project(FaceField<D>& uf, tree::FieldId p, double dt, const
 
 template <int D>
 void NavierStokes<D>::projection(double dt, StepStats& stats) {
-  stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats);
+  if (options_.bdf2) {
+    // The faces hold the last pressure's gradient already (acceleration): the solve is for
+    // its increment, from zero.
+    std::span<double> increment = tree_.values(dp_);
+    std::ranges::fill(increment, 0.0);
+    stats.projection_cycles += project(uf_, dp_, dt, options_.projection, stats);
+    std::span<double> p = tree_.values(p_);
+    for (std::size_t i = 0; i < p.size(); ++i) p[i] += increment[i];  // halos too: both synced alike
+  } else {
+    stats.projection_cycles += project(uf_, p_, dt, options_.projection, stats);
+  }
   centred_gradient(dt);
   faces_current_ = true;
   faces_carried_ = false;

@@ -319,18 +319,22 @@ bool CapsuleCoupling::must_adapt() const {
   return any_rank(must);
 }
 
-double CapsuleCoupling::velocity_change() const {
+CapsuleCoupling::NodeError CapsuleCoupling::node_error() const {
   // A capsule without V_prev counts as infinite, so one maximum over the ranks carries it
   // (a change that is not finite stopped the step before: advance_nodes checks V).
   constexpr double kMissing = std::numeric_limits<double>::infinity();
-  double change = 0.0;
+  double d = 0.0;
   for (const auto& p : capsules_) {
     if (!p) continue;
-    const bool missing = p->previous_velocity.cols() != p->velocity.cols() || p->velocity.cols() == 0;
-    change = std::max(change, missing ? kMissing : (p->velocity - p->previous_velocity).colwise().norm().maxCoeff());
+    const bool missing = p->previous_velocity.cols() != p->velocity.cols() || p->velocity.cols() == 0 ||
+                         p->motion.cols() != p->velocity.cols();
+    d = std::max(d, missing ? kMissing
+                            : (p->motion - 0.5 * (p->previous_velocity + p->velocity)).colwise().norm().maxCoeff());
   }
-  const double global = ns_.tree().global_max(change);
-  return global == kMissing ? -1.0 : global;
+  const double global = ns_.tree().global_max(d);
+  if (global == kMissing) return {};
+  if (bdf2_last_) return {.error = 8.0 / 3.0 * global, .order = 2};
+  return {.error = global, .order = 1};
 }
 
 void CapsuleCoupling::adapted() {
@@ -429,6 +433,7 @@ void CapsuleCoupling::interpolate_velocities(int step) {
 void CapsuleCoupling::advance_nodes(int step, double dt, double previous_dt) {
   const auto t0 = Clock::now();
   const auto& o = ns_.tree().options();
+  const Bdf2Weights bdf2 = bdf2_weights(dt, previous_dt);
   motion_.resize(capsules_.size());
   for (int k = 0; k < num_capsules(); ++k) {
     if (!owns(k)) continue;
@@ -440,6 +445,8 @@ void CapsuleCoupling::advance_nodes(int step, double dt, double previous_dt) {
     Eigen::Matrix3Xd& m = motion_[static_cast<std::size_t>(k)];
     if (scheme_ == NodeScheme::midpoint) {
       m = 0.5 * (c.start_velocity + c.velocity);
+    } else if (bdf2_step_) {
+      m = bdf2.a * c.motion + bdf2.b * c.velocity;
     } else if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
       const double r = dt / previous_dt;
       m = (1.0 + 0.5 * r) * c.velocity - (0.5 * r) * c.previous_velocity;
@@ -460,10 +467,12 @@ void CapsuleCoupling::advance_nodes(int step, double dt, double previous_dt) {
   for (int k = 0; k < num_capsules(); ++k) {
     if (!owns(k)) continue;
     Capsule& c = capsule(k);
-    const Eigen::Matrix3Xd& m = motion_[static_cast<std::size_t>(k)];
+    Eigen::Matrix3Xd& m = motion_[static_cast<std::size_t>(k)];
     c.x += dt * m;
     c.work += dt * c.forces.cwiseProduct(m).sum();
+    std::swap(c.motion, m);
   }
+  bdf2_last_ = bdf2_step_;
   times_.interpolation += seconds_since(t0);
 }
 
@@ -489,6 +498,30 @@ void CapsuleCoupling::place_midpoints() {
     Capsule& c = capsule(k);
     c.x_mid = c.x;
     if (c.velocity.cols() == c.x.cols()) c.x_mid += 0.5 * dt * c.velocity;
+  }
+}
+
+CapsuleCoupling::Bdf2Weights CapsuleCoupling::bdf2_weights(double dt, double dt_last) const {
+  if (!bdf2_step_) return {};
+  const double w = dt / dt_last;
+  return {.a = w / (1.0 + 2.0 * w), .b = (1.0 + w) / (1.0 + 2.0 * w)};
+}
+
+void CapsuleCoupling::place_bdf2_predictions() {
+  // BDF2 needs every capsule's last motion: after a restart from a checkpoint without it,
+  // or on the first step, the step is Euler's for all (one decision on every rank).
+  bool ready = implicit_step_ && last_dt_ > 0.0;
+  for (int k = 0; k < num_capsules(); ++k)
+    if (owns(k)) ready = ready && capsule(k).motion.cols() == capsule(k).x.cols();
+  bdf2_step_ = !any_rank(!ready);
+  // X* = X + dt V_last, second order in dt: the velocity at X(t + dt) then is too, where
+  // J u(t + dt) at X would be first order only.
+  const double dt = ns_.stable_dt();
+  for (int k = 0; k < num_capsules(); ++k) {
+    if (!owns(k)) continue;
+    Capsule& c = capsule(k);
+    c.x_mid = c.x;
+    if (bdf2_step_) c.x_mid += dt * c.motion;
   }
 }
 
@@ -551,6 +584,7 @@ void CapsuleCoupling::forces() {
     return;
   }
   if (scheme_ == NodeScheme::midpoint) place_midpoints();
+  if (scheme_ == NodeScheme::bdf2) place_bdf2_predictions();
   compute_forces(step);
 }
 

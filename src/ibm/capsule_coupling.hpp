@@ -90,7 +90,10 @@ struct Capsule {
   Eigen::Matrix3Xd forces;    // F(X(t)) of the last step
   Eigen::Matrix3Xd velocity;  // V of the last step (V^(n-1) of the next one's AB2)
   Eigen::Matrix3Xd previous_velocity;  // V of the step before (scratch of advance_nodes)
-  Eigen::Matrix3Xd x_mid;              // midpoint scheme: X*, where forces and velocities are taken
+  // (X(t + dt) - X(t)) / dt of the last step: BDF2's history (NodeScheme::bdf2); empty
+  // before the first step.
+  Eigen::Matrix3Xd motion;
+  Eigen::Matrix3Xd x_mid;              // midpoint and bdf2 schemes: X*, where forces and velocities are taken
   Eigen::Matrix3Xd start_velocity;     // midpoint scheme: J(X*) u^n
   Eigen::Matrix3Xd x_at_adapt;  // X at the last adaptation (may_wait)
   Eigen::Matrix3Xd response;    // implicit coupling: J u of its latest flow step (scratch)
@@ -116,7 +119,9 @@ struct StageTimes {
 // flow solve per step (Peskin 2002 section 6, Griffith & Peskin 2005); second order with
 // Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2, and the
 // projected faces carried between steps (measured, docs/numerics.md).
-enum class NodeScheme : unsigned char { euler, ab2, midpoint };
+// bdf2: the implicit coupling's second-order node update (implicit_coupling.cpp). Its
+// explicit steps (time.coupling = "auto") move by Euler's rule.
+enum class NodeScheme : unsigned char { euler, ab2, midpoint, bdf2 };
 
 struct [[nodiscard]] CouplingStep {
   fluid::StepStats fluid;
@@ -156,7 +161,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // What a checkpoint keeps of a capsule, every capsule's on rank 0 (in id order; empty on
   // the others). Collective.
   struct SavedState {
-    Eigen::Matrix3Xd x, x_at_adapt, velocity;  // velocity: empty before the first step
+    Eigen::Matrix3Xd x, x_at_adapt, velocity, motion;  // velocity, motion: empty before the first step
     double work = 0.0;
   };
   [[nodiscard]] std::vector<SavedState> gather_on_root() const;
@@ -305,10 +310,19 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[nodiscard]] double last_dt() const { return last_dt_; }
   void set_last_dt(double dt) { last_dt_ = dt; }
   [[nodiscard]] const StageTimes& times() const { return times_; }
-  // max over every capsule's nodes of |V - V_prev|, the last step's change of the node
-  // velocities (for the step chosen by accuracy); -1 while some owned capsule has no V_prev
-  // (the first step, a restart). Collective (a maximum over the ranks).
-  [[nodiscard]] double velocity_change() const;
+  // The last step's node error per unit time, for the step chosen by accuracy
+  // (app/step_control.hpp), over every capsule's nodes, with d = V_last - (V_prev + V)/2
+  // (V_last the step's motion, V and V_prev this and the last step's J u):
+  //   Euler's steps: max |V - V_prev| / 2 = max |d|, Euler against the trapezoidal rule;
+  //   BDF2's: (8/3) max |d|; d is -(dt^2/12) X''' (the trapezoidal rule's error) and BDF2's
+  //   local error per unit time (2/9) dt^2 |X'''|.
+  // error < 0 while some owned capsule has no V_prev (the first step, a restart).
+  // Collective (a maximum over the ranks).
+  struct NodeError {
+    double error = -1.0;
+    int order = 1;  // of the step's scheme: the controller's exponent is 1 / order
+  };
+  [[nodiscard]] NodeError node_error() const;
   // The spread force of the capsules with staggered = false, on cells (zero if none).
   [[nodiscard]] const CellVector& cell_force() const { return force_; }
   // The spread force of the capsules with staggered = true, on faces (zero if none).
@@ -358,10 +372,19 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
     if (i < interpolation_walls_.size() && interpolation_walls_[i].near_nodes() > 0) return &interpolation_walls_[i];
     return same_kernel_walls_[i] ? spread_walls(i) : nullptr;
   }
-  // Where the stages take forces and velocities: X, or X* with the midpoint scheme.
+  // Where the stages take forces and velocities: X, or X* with the midpoint and bdf2 schemes.
   [[nodiscard]] const Eigen::Matrix3Xd& stage_positions(const Capsule& c) const {
-    return scheme_ == NodeScheme::midpoint ? c.x_mid : c.x;
+    return scheme_ == NodeScheme::midpoint || scheme_ == NodeScheme::bdf2 ? c.x_mid : c.x;
   }
+  // BDF2 (implicit_coupling.cpp): whether this step is one (an implicit step after a step
+  // whose motion every capsule holds), X* = X + dt V_last, and the weights of
+  //   X(t + dt) = X(t) + dt (a V_last + b J u(t + dt)),  w = dt / dt_last,
+  //   a = w / (1 + 2 w), b = (1 + w) / (1 + 2 w)      (Euler: a = 0, b = 1).
+  struct Bdf2Weights {
+    double a = 0.0, b = 1.0;
+  };
+  [[nodiscard]] Bdf2Weights bdf2_weights(double dt, double dt_last) const;
+  void place_bdf2_predictions();
   // What a failure's message names as its likely cause: the explicit coupling's instability
   // (when dt is above the measured limit; else a wall or a fold), a node out of the refined
   // band (instability, or a band that did not follow the membrane), or a wall.
@@ -460,6 +483,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   fluid::NavierStokes<3>::FaceForce background_;
   ImplicitOptions implicit_;
   bool implicit_step_ = false;  // implicit(): this step's
+  bool bdf2_step_ = false;      // this step is BDF2's (bdf2_weights)
+  bool bdf2_last_ = false;      // the last step was (node_error)
   ImplicitStats implicit_stats_;
   double implicit_seconds_ = 0.0;  // inside correct(), besides its flow steps (see motion)
 };

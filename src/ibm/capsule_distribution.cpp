@@ -33,6 +33,23 @@ const std::uint64_t* pop_matrix(const std::uint64_t* w, Eigen::Matrix3Xd& m, Eig
   return w;
 }
 
+// The state a capsule carries from step to step besides its positions: V of the last step
+// (AB2, the step control) and its motion (BDF2), each when it has one.
+std::uint64_t history_flags(const Capsule& c) {
+  return (c.velocity.cols() == c.x.cols() ? 1u : 0u) | (c.motion.cols() == c.x.cols() ? 2u : 0u);
+}
+void push_history(std::vector<std::uint64_t>& w, const Capsule& c) {
+  const std::uint64_t flags = history_flags(c);
+  if (flags & 1u) push_matrix(w, c.velocity);
+  if (flags & 2u) push_matrix(w, c.motion);
+}
+const std::uint64_t* pop_history(const std::uint64_t* p, std::uint64_t flags, Eigen::Index nodes,
+                                 Eigen::Matrix3Xd& velocity, Eigen::Matrix3Xd& motion) {
+  if (flags & 1u) p = pop_matrix(p, velocity, nodes);
+  if (flags & 2u) p = pop_matrix(p, motion, nodes);
+  return p;
+}
+
 }  // namespace
 
 void CapsuleCoupling::collectively(const std::function<void()>& f) const {
@@ -89,13 +106,12 @@ void CapsuleCoupling::migrate() {
     if (q == comm.rank()) continue;
     // The state a step reads from the last one; forces, X* and the start velocity are recomputed.
     auto& w = send[static_cast<std::size_t>(q)];
-    const bool has_velocity = c.velocity.cols() == c.x.cols();
-    w.insert(w.end(), {static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(c.x.cols()), has_velocity ? 1u : 0u});
+    w.insert(w.end(), {static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(c.x.cols()), history_flags(c)});
     push_matrix(w, c.x);
     push_matrix(w, c.x_at_adapt);
-    if (has_velocity) push_matrix(w, c.velocity);
+    push_history(w, c);
     w.insert(w.end(), {bits(c.work), bits(c.energy)});
-    traffic_.words_sent += 5 + 9 * c.x.cols();
+    traffic_.words_sent += 5 + 12 * c.x.cols();
     capsules_[static_cast<std::size_t>(k)].reset();
     ++migrations_;
   }
@@ -104,11 +120,11 @@ void CapsuleCoupling::migrate() {
     for (const std::uint64_t* p = w.data(); p < w.data() + w.size();) {
       const auto k = static_cast<int>(*p++);
       const auto nodes = static_cast<Eigen::Index>(*p++);
-      const bool has_velocity = *p++ != 0;
+      const std::uint64_t flags = *p++;
       auto c = std::make_unique<Capsule>(Capsule{.model = factory_(k), .kernels = kernels_[static_cast<std::size_t>(k)]});
       p = pop_matrix(p, c->x, nodes);
       p = pop_matrix(p, c->x_at_adapt, nodes);
-      if (has_velocity) p = pop_matrix(p, c->velocity, nodes);
+      p = pop_history(p, flags, nodes, c->velocity, c->motion);
       c->work = value(*p++);
       c->energy = value(*p++);
       capsules_[static_cast<std::size_t>(k)] = std::move(c);
@@ -213,6 +229,7 @@ void CapsuleCoupling::distributed_forces(int step) {
   migrate();
   collectively([&] {
     if (scheme_ == NodeScheme::midpoint) place_midpoints();
+    if (scheme_ == NodeScheme::bdf2) place_bdf2_predictions();
     compute_forces(step);
   });
 }
@@ -267,7 +284,7 @@ std::int64_t CapsuleCoupling::leaf_weight(int level, tree::Key key, std::int64_t
 
 std::vector<CapsuleCoupling::SavedState> CapsuleCoupling::gather_on_root() const {
   std::vector<SavedState> all(static_cast<std::size_t>(num_capsules()));
-  auto save = [](const Capsule& c) { return SavedState{c.x, c.x_at_adapt, c.velocity, c.work}; };
+  auto save = [](const Capsule& c) { return SavedState{c.x, c.x_at_adapt, c.velocity, c.motion, c.work}; };
   if (!distributed()) {
     for (int k = 0; k < num_capsules(); ++k) all[static_cast<std::size_t>(k)] = save(capsule(k));
     return all;
@@ -278,11 +295,10 @@ std::vector<CapsuleCoupling::SavedState> CapsuleCoupling::gather_on_root() const
   for (int k = 0; k < num_capsules(); ++k) {
     if (!owns(k)) continue;
     const Capsule& c = capsule(k);
-    const bool has_velocity = c.velocity.cols() == c.x.cols();
-    w.insert(w.end(), {static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(c.x.cols()), has_velocity ? 1u : 0u});
+    w.insert(w.end(), {static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(c.x.cols()), history_flags(c)});
     push_matrix(w, c.x);
     push_matrix(w, c.x_at_adapt);
-    if (has_velocity) push_matrix(w, c.velocity);
+    push_history(w, c);
     w.push_back(bits(c.work));
   }
   const auto received = parallel::sparse_exchange(comm, send);
@@ -291,11 +307,11 @@ std::vector<CapsuleCoupling::SavedState> CapsuleCoupling::gather_on_root() const
     for (const std::uint64_t* p = words.data(); p < words.data() + words.size();) {
       const auto k = static_cast<std::size_t>(*p++);
       const auto nodes = static_cast<Eigen::Index>(*p++);
-      const bool has_velocity = *p++ != 0;
+      const std::uint64_t flags = *p++;
       SavedState& s = all[k];
       p = pop_matrix(p, s.x, nodes);
       p = pop_matrix(p, s.x_at_adapt, nodes);
-      if (has_velocity) p = pop_matrix(p, s.velocity, nodes);
+      p = pop_history(p, flags, nodes, s.velocity, s.motion);
       s.work = value(*p++);
     }
   return all;

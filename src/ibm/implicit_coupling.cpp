@@ -40,8 +40,8 @@ void CapsuleCoupling::set_implicit(const ImplicitOptions& o) {
 
 void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   if (!implicit()) return;
-  if (scheme_ != NodeScheme::euler)
-    throw std::logic_error("ibm: the implicit coupling moves the nodes by Euler's rule only");
+  if (scheme_ != NodeScheme::euler && scheme_ != NodeScheme::bdf2)
+    throw std::logic_error("ibm: the implicit coupling moves the nodes by Euler's or BDF2's rule only");
   const int step = static_cast<int>(steps_ + 1);
   const double dt = ns_.last_dt();
   const auto t0 = Clock::now();
@@ -117,9 +117,16 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
     flow();
   };
   const Eigen::VectorXd explicit_velocity = interpolated();
-  const Eigen::VectorXd b = dt * explicit_velocity;
+  // The unknown is the step's displacement from the stage positions, y = X(t + dt) - X*; the
+  // scheme moves X(t + dt) = X + dt (a V_last + b J u(t + dt)) with X* = X + dt V_last (Euler:
+  // a = 0, b = 1, X* = X), and u(t + dt) = u_explicit - L S K y, so
+  //   (I + b dt J L S K) y = dt (a - 1) V_last + b dt J u_explicit.
+  const Bdf2Weights w = bdf2_weights(dt, last_dt_);
+  Eigen::VectorXd b = (w.b * dt) * explicit_velocity;
+  if (bdf2_step_)
+    for (std::size_t i = 0; i < ids.size(); ++i) block(b, i) += ((w.a - 1.0) * dt) * capsule(ids[i]).motion;
 
-  // A v = v + dt (J u(F) - J u(F - K s v)) / s: the flow's response to -K v, by the difference
+  // A v = v + b dt (J u(F) - J u(F - K s v)) / s: the flow's response to -K v, by the difference
   // of two steps. The solves stop at absolute tolerances (fluid::FlowOptions), so s scales the
   // response to ten times J u_explicit, well above them, whatever the size of v or of F (a
   // capsule at rest in a flow has F = 0). The response per unit force (the gain) is taken
@@ -138,7 +145,7 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
     step_with(s * kv);
     const Eigen::VectorXd response = explicit_velocity - interpolated();
     gain = std::max(std::sqrt(dot(response, response)) / (s * kv_norm), 1e-300);
-    return Eigen::VectorXd(v + (dt / s) * response);
+    return Eigen::VectorXd(v + (w.b * dt / s) * response);
   };
   const auto identity = [](const Eigen::VectorXd& v) { return v; };
   Eigen::VectorXd displacement;

@@ -24,7 +24,7 @@ enum class InflowProfile : unsigned char { uniform, square_duct, parabolic, pipe
 enum class MembraneLaw : unsigned char { skalak, neo_hookean };
 enum class InitialShape : unsigned char { sphere, ellipsoid, inflated };
 enum class KernelType : unsigned char { cosine, hat, peskin4 };
-enum class NodeScheme : unsigned char { euler, ab2, midpoint };
+enum class NodeScheme : unsigned char { euler, ab2, midpoint, bdf2 };
 enum class Coupling : unsigned char { explicit_forces, implicit_forces, automatic };
 enum class SolidShape : unsigned char { box, sphere, cylinder, tube, stl };
 enum class SolidCombine : unsigned char { unite, subtract, intersect };

@@ -28,9 +28,10 @@ inline constexpr NameTable<InitialShape, 3> kInitialShapes{{{InitialShape::spher
 inline constexpr NameTable<KernelType, 3> kKernelTypes{{{KernelType::cosine, "cosine"},
                                                         {KernelType::hat, "hat"},
                                                         {KernelType::peskin4, "peskin4"}}};
-inline constexpr NameTable<NodeScheme, 3> kNodeSchemes{{{NodeScheme::euler, "euler"},
+inline constexpr NameTable<NodeScheme, 4> kNodeSchemes{{{NodeScheme::euler, "euler"},
                                                         {NodeScheme::ab2, "ab2"},
-                                                        {NodeScheme::midpoint, "midpoint"}}};
+                                                        {NodeScheme::midpoint, "midpoint"},
+                                                        {NodeScheme::bdf2, "bdf2"}}};
 inline constexpr NameTable<Coupling, 3> kCouplings{{{Coupling::explicit_forces, "explicit"},
                                                     {Coupling::implicit_forces, "implicit"},
                                                     {Coupling::automatic, "auto"}}};

@@ -284,10 +284,18 @@ void check_time(const CaseConfig& c, const Checker& ck) {
   if (c.time.tolerance > 0.0 && c.capsules.empty())
     ck.fail("time.tolerance", toml_number(c.time.tolerance),
             "bounds the membrane nodes' error, and the case has no [[capsule]]: set time.cfl for the flow's step");
-  if (c.time.coupling != Coupling::explicit_forces && c.time.node_scheme != NodeScheme::euler)
+  const bool implicit_rule = c.time.node_scheme == NodeScheme::euler || c.time.node_scheme == NodeScheme::bdf2;
+  if (c.time.coupling != Coupling::explicit_forces && !implicit_rule)
     ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
-            "the implicit coupling (time.coupling = \"implicit\") moves the nodes by Euler's rule: set "
-            "time.node_scheme = \"euler\"");
+            "the implicit coupling (time.coupling = \"implicit\" or \"auto\") moves the nodes by Euler's or BDF2's "
+            "rule: set time.node_scheme = \"euler\" or \"bdf2\"");
+  if (c.time.node_scheme == NodeScheme::bdf2 && (c.fluid.carry_faces || c.fluid.crank_nicolson))
+    ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
+            "BDF2 steps the flow by BDF2 too, with neither fluid.carry_faces nor fluid.crank_nicolson: set them "
+            "to false");
+  if (c.time.coupling == Coupling::explicit_forces && c.time.node_scheme == NodeScheme::bdf2)
+    ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
+            "BDF2 is the implicit coupling's rule: set time.coupling = \"implicit\" or \"auto\"");
 }
 
 void check_output(const CaseConfig& c, const Checker& ck) {

@@ -13,15 +13,26 @@ TEST(StepControl, NextStepFollowsTheErrorPerUnitTime) {
   EXPECT_EQ(c.next(0.0), 1e-3);
   c.after_step(1e-3, -1.0);  // no estimate yet (the first step): the same step
   EXPECT_EQ(c.next(1e-3), 1e-3);
-  c.after_step(1e-3, 0.0150);  // e = 0.0075: 0.9 x 0.01 / 0.0075 = 1.2
+  c.after_step(1e-3, 0.0075);  // e = 0.0075: 0.9 x 0.01 / 0.0075 = 1.2
   EXPECT_DOUBLE_EQ(c.error(), 0.0075);
   EXPECT_DOUBLE_EQ(c.next(2e-3), 1.2e-3);
-  c.after_step(1.2e-3, 0.002);  // e = 0.001: growth capped at 2
+  c.after_step(1.2e-3, 0.001);  // e = 0.001: growth capped at 2
   EXPECT_DOUBLE_EQ(c.next(0.0), 2.4e-3);
-  c.after_step(2.4e-3, 1.0);  // e = 0.5: shrink capped at a quarter
+  c.after_step(2.4e-3, 0.5);  // e = 0.5: shrink capped at a quarter
   EXPECT_DOUBLE_EQ(c.next(0.0), 6e-4);
   c.after_step(6e-4, 0.0);  // no change at all: growth capped
   EXPECT_DOUBLE_EQ(c.next(0.0), 1.2e-3);
+}
+
+// A second-order step's error falls as dt^2: the step follows the square root of the ratio.
+TEST(StepControl, SecondOrderStepsFollowTheSquareRoot) {
+  StepControl c({.tolerance = 0.01, .first_dt = 1e-3});
+  c.after_step(1e-3, 0.0081, 2);  // 0.9 sqrt(0.01 / 0.0081) = 1
+  EXPECT_DOUBLE_EQ(c.next(0.0), 1e-3);
+  c.after_step(1e-3, 0.0324, 2);  // 0.9 sqrt(0.01 / 0.0324) = 0.5
+  EXPECT_DOUBLE_EQ(c.next(0.0), 5e-4);
+  c.after_step(5e-4, 1.0, 2);  // still a quarter at most
+  EXPECT_DOUBLE_EQ(c.next(0.0), 1.25e-4);
 }
 
 TEST(StepControl, DtMaxCapsAndOffIsOff) {
@@ -50,7 +61,7 @@ TEST(StepControl, StepsLandOnTheInstantsTheyCross) {
 
 TEST(StepControl, RestartTakesTheSameNextStep) {
   StepControl a({.tolerance = 0.01, .first_dt = 1e-3});
-  a.after_step(1e-3, 0.004);
+  a.after_step(1e-3, 0.002);
   StepControl b({.tolerance = 0.01, .first_dt = 1e-3});
   b.restore(a.proposal());
   EXPECT_EQ(b.next(0.5), a.next(0.5));

@@ -29,6 +29,7 @@ struct SeedRun {
   bool crank_nicolson = false;  // viscous scheme (FlowOptions)
   bool current_force_in_viscous = false;  // FlowOptions
   bool carry_faces = false;               // FlowOptions
+  bool bdf2 = false;                      // FlowOptions
 };
 
 struct SeedSetup {
@@ -53,6 +54,7 @@ inline fluid::FlowOptions<3> seed_flow(const SeedRun& r) {
   o.crank_nicolson = r.crank_nicolson;
   o.current_force_in_viscous = r.current_force_in_viscous;
   o.carry_faces = r.carry_faces;
+  o.bdf2 = r.bdf2;
   return o;
 }
 

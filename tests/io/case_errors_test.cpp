@@ -125,8 +125,17 @@ TEST(io_case_errors, ImplicitCouplingKeys) {
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\nimplicit_max_iterations = 0\n"),
               HasSubstr("time.implicit_max_iterations = 0: must be >= 1"));
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\ncoupling = \"implicit\"\nnode_scheme = \"midpoint\"\n"),
-              HasSubstr("time.node_scheme = \"midpoint\": the implicit coupling (time.coupling = \"implicit\") moves "
-                        "the nodes by Euler's rule"));
+              HasSubstr("time.node_scheme = \"midpoint\": the implicit coupling (time.coupling = \"implicit\" or "
+                        "\"auto\") moves the nodes by Euler's or BDF2's rule"));
+  // BDF2: the implicit coupling's, with the flow's BDF2 steps.
+  const CaseConfig b = parse_case_text(std::string(kBase) + "[time]\ncoupling = \"auto\"\nnode_scheme = \"bdf2\"\n", "c");
+  EXPECT_EQ(b.time.node_scheme, NodeScheme::bdf2);
+  EXPECT_EQ(parse_case_text(to_toml(b), "c"), b);
+  EXPECT_THAT(error_of(std::string(kBase) + "[time]\nnode_scheme = \"bdf2\"\n"),
+              HasSubstr("time.node_scheme = \"bdf2\": BDF2 is the implicit coupling's rule"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\ncarry_faces = true\n[time]\ncoupling = \"implicit\"\n"
+                                            "node_scheme = \"bdf2\"\n"),
+              HasSubstr("time.node_scheme = \"bdf2\": BDF2 steps the flow by BDF2 too, with neither fluid.carry_faces"));
 }
 
 TEST(io_case_errors, MaxLevelBelowMinLevel) {
