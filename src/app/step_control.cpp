@@ -20,11 +20,14 @@ void StepControl::after_step(double dt, double error, int order) {
 
 double StepControl::land(double t, double dt) const {
   if (!enabled() || !(options_.instants > 0.0)) return dt;
-  // The last multiple of the interval the step reaches; the slack absorbs the round-off of
-  // a time summed step by step, as the adaptation's own count of intervals does.
+  // The next multiple of the interval; the slack absorbs the round-off of a time summed step
+  // by step, as the adaptation's own count of intervals does. The steps up to it are equal:
+  // cut short, the last one could be a sliver, and the one after it many times longer, which
+  // a multistep rule (BDF2) does not survive.
   const double interval = options_.instants;
-  const double reached = std::floor((t + dt) / interval + 1e-6) * interval;
-  return reached > t + 1e-6 * interval ? reached - t : dt;
+  const double next = (std::floor(t / interval + 1e-6) + 1.0) * interval;
+  const double steps = std::ceil((next - t) / dt - 1e-6);
+  return (next - t) / std::max(1.0, steps);
 }
 
 }  // namespace capsflow::app

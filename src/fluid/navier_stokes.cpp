@@ -355,6 +355,9 @@ void NavierStokes<D>::acceleration(double dt) {
       uf_[d][hi] += carried_faces_[d][hi] - 0.5 * (start_velocity_[d][lo] + start_velocity_[d][hi]);
     });
   }
+  // BDF2: the faces take the face mean of g, whose halos (coarse-fine and the domain's sides)
+  // must be this step's.
+  if (options_.bdf2) tree_.sync(g_);
   with_inverse_density([&](auto alpha, auto) {
     for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
       // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the

@@ -510,7 +510,7 @@ CapsuleCoupling::Bdf2Weights CapsuleCoupling::bdf2_weights(double dt, double dt_
 void CapsuleCoupling::place_bdf2_predictions() {
   // BDF2 needs every capsule's last motion: after a restart from a checkpoint without it,
   // or on the first step, the step is Euler's for all (one decision on every rank).
-  bool ready = implicit_step_ && last_dt_ > 0.0;
+  bool ready = last_dt_ > 0.0;
   for (int k = 0; k < num_capsules(); ++k)
     if (owns(k)) ready = ready && capsule(k).motion.cols() == capsule(k).x.cols();
   bdf2_step_ = !any_rank(!ready);

@@ -119,8 +119,13 @@ struct StageTimes {
 // flow solve per step (Peskin 2002 section 6, Griffith & Peskin 2005); second order with
 // Crank-Nicolson viscosity, whose (u^n + u^(n+1))/2 is the flow at t + dt/2, and the
 // projected faces carried between steps (measured, docs/numerics.md).
-// bdf2: the implicit coupling's second-order node update (implicit_coupling.cpp). Its
-// explicit steps (time.coupling = "auto") move by Euler's rule.
+// bdf2: X(t + dt) = X + dt (a V_last + b J(X*) u(t + dt)) with X* = X + dt V_last and BDF2's
+// variable-step weights (bdf2_weights), V_last the last step's motion (the first step:
+// Euler). The forces are taken at X* too: with the implicit coupling (below) the step is
+// BDF2 on the membrane's own dynamics, second order, and needs the flow's BDF2 steps with the
+// same weights (fluid::FlowOptions::bdf2, which the app sets). The explicit steps of
+// time.coupling = "auto" take the same rule with F(X*) (Euler's there, against the flow's
+// BDF2 steps, drove the step control's estimate up without end: measured).
 enum class NodeScheme : unsigned char { euler, ab2, midpoint, bdf2 };
 
 struct [[nodiscard]] CouplingStep {
@@ -281,7 +286,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // same start (fluid/time_step.hpp, rerun) with the force F - K v. The step is then taken
   // once more with F - K dX, and the nodes move with J u(t + dt) as Euler's do: by the
   // divergence-free kernels, so the volume stays. For K >= 0 the eigenvalues of
-  // I + dt J L S K are >= 1 and the step is stable at any dt. Euler nodes only.
+  // I + dt J L S K are >= 1 and the step is stable at any dt. With NodeScheme::bdf2 the
+  // unknown is the displacement from X* and dt is b dt (implicit_coupling.cpp). Euler and
+  // BDF2 nodes only.
   struct ImplicitOptions {
     bool enabled = false;
     double tolerance = 1e-3;  // FGMRES: |residual| / |dt J u_explicit|

@@ -505,5 +505,18 @@ TEST(AppStepControl, RestartWithTheImplicitCouplingRepeatsTheRunExactly) {
   EXPECT_NE(full[3][2], full[8][2]);  // the controller changed the step
 }
 
+// The same with BDF2 and time.coupling = "auto": the capsule's last motion and the flow's
+// u^(n-1) and history step come back from the checkpoint.
+TEST(AppStepControl, RestartWithBdf2RepeatsTheRunExactly) {
+  const fs::path dir = scratch("restart_bdf2");
+  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
+                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                           "--set capsule[0].radius=0.6 --set time.t_end=0.02 --set output.vtu=false "
+                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"auto\"' "
+                           "--set 'time.node_scheme=\"bdf2\"' --set time.tolerance=0.1 --set output.checkpoint=true "
+                           "--set output.checkpoint_interval=6 ";
+  expect_run_restarts_exactly(dir, base, 12, "checkpoint_000006.h5");
+}
+
 }  // namespace
 }  // namespace capsflow::app

@@ -45,17 +45,20 @@ TEST(StepControl, DtMaxCapsAndOffIsOff) {
   EXPECT_EQ(off.proposal(), 1e-3);
 }
 
-// Steps land on the multiples of the adaptation interval they reach, so adaptations come at
-// the same instants whatever the steps.
-TEST(StepControl, StepsLandOnTheInstantsTheyCross) {
+// Steps land on the multiples of the adaptation interval, so adaptations come at the same
+// instants whatever the steps; the steps up to one are equal, so none is a sliver.
+TEST(StepControl, StepsLandOnTheInstantsInEqualSteps) {
   StepControl c({.tolerance = 1.0, .first_dt = 0.003, .instants = 0.004});
-  EXPECT_DOUBLE_EQ(c.next(0.0), 0.003);     // reaches no instant
-  EXPECT_DOUBLE_EQ(c.next(0.003), 0.001);   // would cross 0.004: lands on it
+  EXPECT_DOUBLE_EQ(c.next(0.0), 0.002);     // two equal steps to 0.004, not 0.003 and 0.001
+  EXPECT_DOUBLE_EQ(c.next(0.003), 0.001);   // the rest of the way
+  EXPECT_NEAR(c.next(0.0039), 1e-4, 1e-15);  // a sliver only when the run put t there itself
   c.after_step(0.003, 0.0);                 // proposes 0.006
-  EXPECT_DOUBLE_EQ(c.next(0.004), 0.004);   // 0.004 + 0.006 reaches 0.008: lands on it
+  EXPECT_DOUBLE_EQ(c.next(0.004), 0.004);   // 0.004 + 0.006 passes 0.008: lands on it
   EXPECT_DOUBLE_EQ(c.next(0.005), 0.003);   // lands on 0.008
+  StepControl d({.tolerance = 1.0, .first_dt = 0.0009, .instants = 0.004});
+  EXPECT_DOUBLE_EQ(d.next(0.0), 0.0008);  // five equal steps, not four and a tenth of one
   // A time summed with round-off just below an instant counts as on it: the next instant
-  // reached is 0.012, not one 1e-16 away.
+  // is 0.012, not one 1e-16 away.
   EXPECT_NEAR(c.next(0.0079999999999999), 0.004, 1e-15);
 }
 
