@@ -26,8 +26,11 @@ double StepControl::land(double t, double dt) const {
   // a multistep rule (BDF2) does not survive.
   const double interval = options_.instants;
   const double next = (std::floor(t / interval + 1e-6) + 1.0) * interval;
-  const double steps = std::ceil((next - t) / dt - 1e-6);
-  return (next - t) / std::max(1.0, steps);
+  const double rest = next - t;
+  // Longer than the rest: on to the last multiple the step reaches (a whole number of
+  // intervals once the run is on one).
+  if (dt > rest * (1.0 + 1e-6)) return rest + std::floor((dt - rest) / interval + 1e-6) * interval;
+  return rest / std::max(1.0, std::ceil(rest / dt - 1e-6));
 }
 
 }  // namespace capsflow::app

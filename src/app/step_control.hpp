@@ -15,7 +15,8 @@
 // adapt.interval_time, so adaptations happen at fixed instants whatever the steps, and runs
 // at two tolerances adapt at the same instants (studies stay comparable): the steps up to
 // the next multiple are equal, each the longest that divides the distance evenly without
-// exceeding the proposal.
+// exceeding the proposal; a proposal longer than the distance runs on to the last multiple
+// it reaches.
 namespace capsflow::app {
 
 class StepControl {

@@ -55,11 +55,14 @@ TEST(StepControl, StepsLandOnTheInstantsInEqualSteps) {
   c.after_step(0.003, 0.0);                 // proposes 0.006
   EXPECT_DOUBLE_EQ(c.next(0.004), 0.004);   // 0.004 + 0.006 passes 0.008: lands on it
   EXPECT_DOUBLE_EQ(c.next(0.005), 0.003);   // lands on 0.008
+  c.after_step(0.006, 0.0);                 // proposes 0.012
+  EXPECT_DOUBLE_EQ(c.next(0.008), 0.012);   // three intervals, on to 0.020
+  EXPECT_DOUBLE_EQ(c.next(0.007), 0.009);   // to 0.008, then on to 0.016
   StepControl d({.tolerance = 1.0, .first_dt = 0.0009, .instants = 0.004});
   EXPECT_DOUBLE_EQ(d.next(0.0), 0.0008);  // five equal steps, not four and a tenth of one
-  // A time summed with round-off just below an instant counts as on it: the next instant
-  // is 0.012, not one 1e-16 away.
-  EXPECT_NEAR(c.next(0.0079999999999999), 0.004, 1e-15);
+  // A time summed with round-off just below an instant counts as on it: the step runs to
+  // 0.020, not to an instant 1e-16 away.
+  EXPECT_NEAR(c.next(0.0079999999999999), 0.012, 1e-15);
 }
 
 TEST(StepControl, RestartTakesTheSameNextStep) {

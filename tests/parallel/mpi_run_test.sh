@@ -21,7 +21,8 @@
 #     another viscosity and density, and one in the tube, match one rank on 3; a capsule blowing
 #     up on one rank stops every rank with status 3 and one line; two and eight capsules in a
 #     periodic box on 4 ranks match one rank, a rank hearing of at most 4 of the 8; the
-#     implicit coupling in the channel and in the tube matches one rank on 3.
+#     implicit coupling in the channel and in the tube matches one rank on 3, with Euler's
+#     and BDF2's rules.
 # Usage: mpi_run_test.sh MPIEXEC CAPSFLOW CASES_DIR
 set -u
 mpiexec=$1 capsflow=$2 cases=$3
@@ -174,6 +175,11 @@ capsule_matches_one_rank "tube-inner-fluid" 3 "${tube[@]}" --set 'capsule[0].vis
 # the tube (embedded walls).
 capsule_matches_one_rank "implicit-coupling" 3 "${quick[@]}" --set 'time.coupling="implicit"' --set time.dt=0.005
 capsule_matches_one_rank "tube-implicit" 3 "${tube[@]}" --set 'time.coupling="implicit"'
+# BDF2 (nodes and flow) with the step control: the capsules' last motion and the flow's
+# u^(n-1) on every rank.
+capsule_matches_one_rank "bdf2-step-control" 3 "${quick[@]}" --set 'time.coupling="auto"' --set 'time.node_scheme="bdf2"' \
+  --set time.tolerance=0.1
+capsule_matches_one_rank "tube-bdf2" 3 "${tube[@]}" --set 'time.coupling="implicit"' --set 'time.node_scheme="bdf2"'
 # The seed case's scheme (midpoint nodes, adaptations in time, faces carried through them).
 seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
       --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)
