@@ -28,7 +28,10 @@ TEST(TimeOrder, MidpointWithCarriedFacesIsSecondOrder) {
 // The implicit coupling with BDF2 nodes and flow (NodeScheme::bdf2, FlowOptions::bdf2):
 // the same ellipsoid to t = 0.016 at dt = 2e-3 (0.8 times the explicit limit) to 2.5e-4; the
 // max-norm node differences between successive dt fall four-fold. Measured: 3.43e-4,
-// 8.70e-5, 2.19e-5 (orders 1.98, 1.99; implicit Euler: 1.04e-3, 5.12e-4, 2.54e-4, order 1).
+// 8.70e-5, 2.19e-5 (orders 1.98, 1.99; 5.42e-6 at 1.25e-4, order 2.00). Implicit Euler is
+// first order (ibm_long_tests TimeOrder.ImplicitCouplingIsFirstOrderInDt); so was BDF2 with
+// the default faces (N_inf 5.9e-4, 2.2e-4, 9.1e-5, 4.2e-5: dt (I - A C) of the force stays in them)
+// and with carried faces before the first step's faces went into the history.
 TEST(TimeOrder, ImplicitBdf2IsSecondOrder) {
   std::vector<Eigen::Matrix3Xd> x;
   for (const double dt : {2e-3, 1e-3, 5e-4, 2.5e-4}) {
