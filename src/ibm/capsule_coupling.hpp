@@ -383,8 +383,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   [[nodiscard]] const Eigen::Matrix3Xd& stage_positions(const Capsule& c) const {
     return scheme_ == NodeScheme::midpoint || scheme_ == NodeScheme::bdf2 ? c.x_mid : c.x;
   }
-  // BDF2 (implicit_coupling.cpp): whether this step is one (an implicit step after a step
-  // whose motion every capsule holds), X* = X + dt V_last, and the weights of
+  // BDF2 (implicit_coupling.cpp): whether this step is one (a step after one whose motion
+  // every capsule holds), X* = X + dt V_last, and the weights of
   //   X(t + dt) = X(t) + dt (a V_last + b J u(t + dt)),  w = dt / dt_last,
   //   a = w / (1 + 2 w), b = (1 + w) / (1 + 2 w)      (Euler: a = 0, b = 1).
   struct Bdf2Weights {
