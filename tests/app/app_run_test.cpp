@@ -490,16 +490,22 @@ TEST(AppStepControl, HalvingTheToleranceHalvesTheError) {
   EXPECT_GT(steps[3], steps[0]);
 }
 
+// The coarse quick relaxation to t = 0.02 with the step control at tolerance 0.1, a row per
+// step and a checkpoint every `interval` steps; `scheme`: the time.* keys of the coupling.
+std::string controlled_quick_relaxation(const std::string& scheme, int interval) {
+  return std::string("run ") + CAPSFLOW_CASES_DIR +
+         "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
+         "--set capsule[0].radius=0.6 --set time.t_end=0.02 --set output.vtu=false --set output.diagnostics_interval=1 " +
+         scheme + " --set time.tolerance=0.1 --set output.checkpoint=true --set output.checkpoint_interval=" +
+         std::to_string(interval) + " ";
+}
+
 // A run with the implicit coupling and the step control, interrupted after a checkpoint and
 // restarted, repeats the uninterrupted run to the last digit (the controller's proposal is
 // in the checkpoint; the nodes' last velocity gives the next estimate).
 TEST(AppStepControl, RestartWithTheImplicitCouplingRepeatsTheRunExactly) {
   const fs::path dir = scratch("restart_step_control");
-  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
-                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
-                           "--set capsule[0].radius=0.6 --set time.t_end=0.02 --set output.vtu=false "
-                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"implicit\"' "
-                           "--set time.tolerance=0.1 --set output.checkpoint=true --set output.checkpoint_interval=8 ";
+  const std::string base = controlled_quick_relaxation("--set 'time.coupling=\"implicit\"'", 8);
   expect_run_restarts_exactly(dir, base, 31, "checkpoint_000008.h5");
   const auto full = rows_of(dir / "full" / "diagnostics.csv");
   EXPECT_NE(full[3][2], full[8][2]);  // the controller changed the step
@@ -509,12 +515,8 @@ TEST(AppStepControl, RestartWithTheImplicitCouplingRepeatsTheRunExactly) {
 // u^(n-1) and history step come back from the checkpoint.
 TEST(AppStepControl, RestartWithBdf2RepeatsTheRunExactly) {
   const fs::path dir = scratch("restart_bdf2");
-  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
-                           "/relaxation_quick.toml --quiet --set adapt.max_level=4 --set capsule[0].nodes=642 "
-                           "--set capsule[0].radius=0.6 --set time.t_end=0.02 --set output.vtu=false "
-                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"auto\"' "
-                           "--set 'time.node_scheme=\"bdf2\"' --set time.tolerance=0.1 --set output.checkpoint=true "
-                           "--set output.checkpoint_interval=6 ";
+  const std::string base =
+      controlled_quick_relaxation("--set 'time.coupling=\"auto\"' --set 'time.node_scheme=\"bdf2\"'", 6);
   expect_run_restarts_exactly(dir, base, 12, "checkpoint_000006.h5");
 }
 
