@@ -358,6 +358,8 @@ void NavierStokes<D>::acceleration(double dt) {
   // BDF2: the faces take the face mean of g, whose halos (coarse-fine and the domain's sides)
   // must be this step's.
   if (options_.bdf2) tree_.sync(g_);
+  std::array<std::span<const double>, D> g;
+  for (int d = 0; d < D; ++d) g[d] = tree_.values(g_[d]);
   with_inverse_density([&](auto alpha, auto) {
     for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
       // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
@@ -370,7 +372,7 @@ void NavierStokes<D>::acceleration(double dt) {
         return;
       }
       if (options_.bdf2) {  // the face mean of the cells' acceleration (FlowOptions::bdf2)
-        uf_[d][hi] += dt * 0.5 * (tree_.values(g_[d])[lo] + tree_.values(g_[d])[hi]);
+        uf_[d][hi] += dt * 0.5 * (g[d][lo] + g[d][hi]);
         return;
       }
       uf_[d][hi] += dt * alpha(d, lo, hi, lv) * force_[d][hi];

@@ -42,4 +42,29 @@ inline std::array<double, 3> errors(const OrderRun& o, double dt0, const char* l
   return e;
 }
 
+// The implicit coupling's dt ladder without a reference: `run` at each dt of `dts` (halving)
+// to t_end with the node `scheme` and the solve's `tolerance`; the max-norm differences of
+// the final nodes between successive dt, printed with their orders under `label`.
+inline std::vector<double> implicit_ladder(test::SeedRun run, NodeScheme scheme, double tolerance,
+                                           std::initializer_list<double> dts, double t_end, const char* label) {
+  std::vector<Eigen::Matrix3Xd> x;
+  for (const double dt : dts) {
+    run.dt = dt;
+    auto s = test::seed_setup(run);
+    s.coupling->set_node_scheme(scheme);
+    s.coupling->set_implicit({.enabled = true, .tolerance = tolerance, .max_iterations = 60});
+    const int steps = static_cast<int>(std::lround(t_end / dt));
+    for (int k = 0; k < steps; ++k) (void)s.step();
+    x.push_back(s.coupling->capsule(0).x);
+  }
+  std::vector<double> d;
+  for (std::size_t k = 0; k + 1 < x.size(); ++k) d.push_back((x[k] - x[k + 1]).colwise().norm().maxCoeff());
+  std::printf("%s: N_inf between successive dt", label);
+  for (const double v : d) std::printf(" %.3e", v);
+  std::printf("; orders");
+  for (std::size_t k = 0; k + 1 < d.size(); ++k) std::printf(" %.2f", std::log2(d[k] / d[k + 1]));
+  std::printf("\n");
+  return d;
+}
+
 }  // namespace capsflow::ibm::test

@@ -8,8 +8,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdio>
-#include <vector>
 
 #include "order_support.hpp"
 
@@ -33,28 +31,15 @@ TEST(TimeOrder, MidpointWithCarriedFacesIsSecondOrder) {
 // the default faces (N_inf 5.9e-4, 2.2e-4, 9.1e-5, 4.2e-5: dt (I - A C) of the force stays in them)
 // and with carried faces before the first step's faces went into the history.
 TEST(TimeOrder, ImplicitBdf2IsSecondOrder) {
-  std::vector<Eigen::Matrix3Xd> x;
-  for (const double dt : {2e-3, 1e-3, 5e-4, 2.5e-4}) {
-    const test::SeedRun r{.max_level = 4,
-                          .min_level = 4,
-                          .dt = dt,
-                          .mesh_level = 3,
-                          .tolerance = 1e-10,
-                          .adapt = {.enabled = false},
-                          .kernels = {.spread = KernelKind::cosine, .interpolate = KernelKind::cosine},
-                          .current_force_in_viscous = true,
-                          .bdf2 = true};
-    auto s = test::seed_setup(r);
-    s.coupling->set_node_scheme(NodeScheme::bdf2);
-    s.coupling->set_implicit({.enabled = true, .tolerance = 1e-6, .max_iterations = 60});
-    const int steps = static_cast<int>(std::lround(0.016 / dt));
-    for (int k = 0; k < steps; ++k) (void)s.step();
-    x.push_back(s.coupling->capsule(0).x);
-  }
-  std::vector<double> d;
-  for (std::size_t k = 0; k + 1 < x.size(); ++k) d.push_back((x[k] - x[k + 1]).colwise().norm().maxCoeff());
-  std::printf("BDF2: N_inf between dt and dt/2 (dt = 2e-3, 1e-3, 5e-4): %.3e %.3e %.3e; orders %.2f %.2f\n",
-              d[0], d[1], d[2], std::log2(d[0] / d[1]), std::log2(d[1] / d[2]));
+  const auto d = test::implicit_ladder({.max_level = 4,
+                                        .min_level = 4,
+                                        .mesh_level = 3,
+                                        .tolerance = 1e-10,
+                                        .adapt = {.enabled = false},
+                                        .kernels = {.spread = KernelKind::cosine, .interpolate = KernelKind::cosine},
+                                        .current_force_in_viscous = true,
+                                        .bdf2 = true},
+                                       NodeScheme::bdf2, 1e-6, {2e-3, 1e-3, 5e-4, 2.5e-4}, 0.016, "BDF2");
   EXPECT_GT(std::log2(d[0] / d[1]), 1.8);
   EXPECT_GT(std::log2(d[1] / d[2]), 1.8);
   EXPECT_LT(d[2], 3e-5);

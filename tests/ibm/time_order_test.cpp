@@ -41,19 +41,9 @@ TEST(TimeOrder, CoupledStepIsFirstOrderAndMidpointIsMoreAccurate) {
 // limit) to 5e-4; the max-norm node differences between successive dt halve with dt.
 // Measured: 3.41e-3, 1.88e-3, 9.62e-4 (orders 0.86, 0.97).
 TEST(TimeOrder, ImplicitCouplingIsFirstOrderInDt) {
-  std::vector<Eigen::Matrix3Xd> x;
-  for (const double dt : {4e-3, 2e-3, 1e-3, 5e-4}) {
-    const test::SeedRun r{.max_level = 4, .dt = dt, .radius = 0.6, .mesh_level = 3, .current_force_in_viscous = true};
-    auto s = test::seed_setup(r);
-    s.coupling->set_implicit({.enabled = true, .tolerance = 1e-4, .max_iterations = 60});
-    const int steps = static_cast<int>(std::lround(0.04 / dt));
-    for (int k = 0; k < steps; ++k) (void)s.step();
-    x.push_back(s.coupling->capsule(0).x);
-  }
-  std::vector<double> d;
-  for (std::size_t k = 0; k + 1 < x.size(); ++k) d.push_back((x[k] - x[k + 1]).colwise().norm().maxCoeff());
-  std::printf("N_inf between dt and dt/2 (dt = 4e-3, 2e-3, 1e-3): %.3e %.3e %.3e; orders %.2f %.2f\n", d[0], d[1], d[2],
-              std::log2(d[0] / d[1]), std::log2(d[1] / d[2]));
+  const auto d = test::implicit_ladder(
+      {.max_level = 4, .radius = 0.6, .mesh_level = 3, .current_force_in_viscous = true}, NodeScheme::euler, 1e-4,
+      {4e-3, 2e-3, 1e-3, 5e-4}, 0.04, "implicit Euler");
   EXPECT_GT(std::log2(d[0] / d[1]), 0.75);
   EXPECT_GT(std::log2(d[1] / d[2]), 0.9);
 }
