@@ -39,6 +39,8 @@ template <int D>
 NavierStokes<D>::NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options)
     : tree_(tree), options_(std::move(options)) {
   validate(options_);
+  viscous_tolerance_ = options_.viscous.tolerance;
+  projection_tolerance_ = options_.projection.tolerance;
   conditions_ = make_flow_conditions<D>(options_.boundaries, tree_.options(), &boundary_time_);
   mu_ = options_.viscosity == -1.0 ? 1.0 / options_.Re : options_.viscosity;
   zero_gradient_ = tree::BoundaryConditions<D>::all(tree::BcKind::neumann);
@@ -55,6 +57,14 @@ NavierStokes<D>::NavierStokes(tree::Tree<D>& tree, FlowOptions<D> options)
     dp_ = tree_.add_field({.name = "dp", .bc = conditions_.pressure, .saved = false});
   }
   resize_scratch();
+}
+
+template <int D>
+void NavierStokes<D>::set_tolerance_scale(double scale) {
+  if (!(scale >= 1.0 && std::isfinite(scale)))
+    throw std::invalid_argument(fmt::format("NavierStokes::set_tolerance_scale: {} is not a finite scale >= 1", scale));
+  options_.viscous.tolerance = scale * viscous_tolerance_;
+  options_.projection.tolerance = scale * projection_tolerance_;
 }
 
 template <int D>

@@ -117,6 +117,10 @@ class NavierStokes {
   tree::Tree<D>& tree() { return tree_; }
   const tree::Tree<D>& tree() const { return tree_; }
   const FlowOptions<D>& options() const { return options_; }
+  // Scales the viscous and projection solves' tolerances (1: the options' own) for the steps
+  // that follow. The implicit coupling's products take their flow steps looser
+  // (implicit_coupling.cpp).
+  void set_tolerance_scale(double scale);
   const FlowConditions<D>& conditions() const { return conditions_; }
   double time() const { return time_; }
   void set_time(double t) { time_ = t; }
@@ -313,6 +317,7 @@ class NavierStokes {
 
   tree::Tree<D>& tree_;
   FlowOptions<D> options_;
+  double viscous_tolerance_ = 0.0, projection_tolerance_ = 0.0;  // the options' own (set_tolerance_scale)
   FlowConditions<D> conditions_;
   tree::BoundaryConditions<D> zero_gradient_;
   double time_ = 0.0;

@@ -5,6 +5,7 @@
 // reruns the step from its start (NavierStokes::save_state).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -132,6 +133,29 @@ TEST(TimeStep, AnImplicitBodyRerunsTheStepFromItsStart) {
   for (int d = 0; d < 2; ++d)
     for (const Index c : stepped.tree.leaves()) ASSERT_EQ(stepped.ns.u(d)[c], plain.ns.u(d)[c]) << "cell " << c;
   for (const Index c : stepped.tree.leaves()) ASSERT_EQ(stepped.ns.p()[c], plain.ns.p()[c]) << "cell " << c;
+}
+
+// The implicit coupling's products step at looser tolerances (set_tolerance_scale): the
+// solves stop sooner, and scale 1 gives back the options' own step to the last bit.
+TEST(NavierStokesToleranceScale, LoosensTheSolvesAndScaleOneRestoresThem) {
+  const auto force = [](const tree::Tree<2>& t, FaceField<2>& f) {
+    for_each_face<2>(t, [&](int d, Index, Index hi, double, const tree::Level<2>&) {
+      f[d][hi] = d == 0 ? 100.0 * t.center(hi)[1] : 0.0;  // a shear force along x
+    });
+  };
+  Box tight, loose, back;
+  for (Box* b : {&tight, &loose, &back}) b->ns.set_face_force(force);
+  loose.ns.set_tolerance_scale(100.0);
+  EXPECT_DOUBLE_EQ(loose.ns.options().viscous.tolerance, 100.0 * tight.ns.options().viscous.tolerance);
+  EXPECT_DOUBLE_EQ(loose.ns.options().projection.tolerance, 100.0 * tight.ns.options().projection.tolerance);
+  const StepStats a = tight.ns.step(), b = loose.ns.step();
+  EXPECT_LT(b.cycles(), a.cycles());
+  back.ns.set_tolerance_scale(100.0);
+  back.ns.set_tolerance_scale(1.0);
+  (void)back.ns.step();
+  for (int d = 0; d < 2; ++d)
+    for (const Index c : tight.tree.leaves()) ASSERT_EQ(back.ns.u(d)[c], tight.ns.u(d)[c]) << "cell " << c;
+  for (const double bad : {0.5, 0.0, std::nan("")}) EXPECT_THROW(back.ns.set_tolerance_scale(bad), std::invalid_argument);
 }
 
 TEST(NavierStokesState, RestoreOnAnotherTreeIsRefused) {
