@@ -65,6 +65,7 @@ fluid::FlowOptions<D> flow_options(const io::CaseConfig& c) {
   // BDF2 nodes need the flow's BDF2 steps with the same weights: with backward Euler's the
   // flow's own error keeps the coupled step first order.
   o.bdf2 = c.time.node_scheme == io::NodeScheme::bdf2;
+  o.pressure_iterations = c.fluid.pressure_iterations;
   o.dt = c.time.cfl > 0.0 && c.time.dt_max > 0.0 ? c.time.dt_max : c.time.dt;
   // With capsules and cfl > 0 the solver chooses dt (the time loop caps it by the coupling's
   // stability limit): time.dt does not cap it, only dt_max does.

@@ -28,6 +28,13 @@ void validate(const FlowOptions<D>& o) {
   positive(o.density, "fluid.density");
   if (o.viscosity != -1.0) positive(o.viscosity, "fluid.viscosity");
   positive(o.dt, "time.dt");
+  if (o.pressure_iterations < 0)
+    throw std::invalid_argument(fmt::format("fluid.pressure_iterations = {}: must be >= 0", o.pressure_iterations));
+  if (o.pressure_iterations > 0 && !o.bdf2)
+    throw std::invalid_argument(fmt::format(
+        "fluid.pressure_iterations = {}: the pressure is iterated in BDF2 steps only (time.node_scheme = \"bdf2\"), "
+        "whose projection adds an increment to p^n",
+        o.pressure_iterations));
   if (o.bdf2 && (o.crank_nicolson || o.carry_faces || !o.current_force_in_viscous))
     throw std::invalid_argument(
         "the flow's BDF2 steps (time.node_scheme = \"bdf2\") take this step's force in the viscous solve, and "
@@ -65,6 +72,12 @@ void NavierStokes<D>::set_tolerance_scale(double scale) {
     throw std::invalid_argument(fmt::format("NavierStokes::set_tolerance_scale: {} is not a finite scale >= 1", scale));
   options_.viscous.tolerance = scale * viscous_tolerance_;
   options_.projection.tolerance = scale * projection_tolerance_;
+}
+
+template <int D>
+std::span<const double> NavierStokes<D>::pressure_increment() const {
+  if (!options_.bdf2) throw std::logic_error("NavierStokes::pressure_increment: only BDF2 steps project an increment");
+  return tree_.values(dp_);
 }
 
 template <int D>
@@ -221,9 +234,7 @@ StepStats NavierStokes<D>::step() {
     evaluate_force();
     centred_gradient(h, /*only_g=*/true);
   }
-  viscosity(h, stats);
-  acceleration(h);
-  projection(h, stats);
+  viscous_and_projection_stages(h, stats);
   time_ += dt;
   last_dt_ = dt;
   stats.t = time_;
@@ -343,8 +354,23 @@ void NavierStokes<D>::evaluate_force() {
   // Without a callback the field stays zero (resize_scratch and set_face_force zero it, the
   // acceleration writes zeros only): no fill of D x num_cells values every step.
   if (!face_force_) return;
+  if (fixed_force_) {
+    force_ = *fixed_force_;
+    return;
+  }
   for (auto& f : force_) std::fill(f.begin(), f.end(), 0.0);
   face_force_(tree_, force_);
+  // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the wall
+  // carries the normal force: zero there, for every stage that reads it (the faces'
+  // acceleration, and g = C(force - grad p) before the viscous solve and after the projection,
+  // which must agree: otherwise u = u' + dt (g_after - g_before) keeps dt times the force on
+  // the cells beside such a side).
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
+    const Index outside = std::max(lo, hi);
+    if (outside >= lv.boundary_begin() &&
+        conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann)
+      force_[d][hi] = 0.0;
+  });
 }
 
 template <int D>
@@ -372,15 +398,13 @@ void NavierStokes<D>::acceleration(double dt) {
   for (int d = 0; d < D; ++d) g[d] = tree_.values(g_[d]);
   with_inverse_density([&](auto alpha, auto) {
     for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
-      // On a side where the normal velocity is prescribed (wall, moving wall, inflow) the
-      // wall carries the normal force: no acceleration there, so the face keeps its
-      // prescribed velocity and the homogeneous Neumann pressure balances the rest exactly.
+      // On a side where the normal velocity is prescribed (wall, moving wall, inflow) no
+      // acceleration (evaluate_force zeroed the force there): the face keeps its prescribed
+      // velocity and the homogeneous Neumann pressure balances the rest exactly.
       const Index outside = std::max(lo, hi);
       if (outside >= lv.boundary_begin() &&
-          conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann) {
-        force_[d][hi] = 0.0;
+          conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann)
         return;
-      }
       if (options_.bdf2) {  // the face mean of the cells' acceleration (FlowOptions::bdf2)
         uf_[d][hi] += dt * 0.5 * (g[d][lo] + g[d][hi]);
         return;

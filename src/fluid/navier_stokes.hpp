@@ -80,6 +80,12 @@ struct FlowOptions {
   // advection stays explicit, from u^ over b dt, first order. Needs
   // current_force_in_viscous; not with crank_nicolson or carry_faces.
   bool bdf2 = false;
+  // BDF2 steps: at most this many GMRES iterations on the step's pressure, each a viscous
+  // solve and a projection taken again (ns_pressure_iterations.cpp), so that the pressure is
+  // consistent with the velocity. One projection from p^n (0, the default) lags at steps
+  // above the flow's viscous times, rho / (mu k^2) for a mode of wavenumber k: there the
+  // quick relaxation's D12 at t = 4 was off by 0.03 at dt = 0.5 (docs/numerics.md).
+  int pressure_iterations = 0;
   std::array<SideFlow<D>, 2 * D> boundaries{};
   // Tolerances are dimensionless, as Basilisk's TOLERANCE: the projection stops when
   // max |div uf| dt <= tolerance (the relative volume change of a cell in one step), the
@@ -97,6 +103,7 @@ void validate(const FlowOptions<D>& o);
 struct [[nodiscard]] StepStats {
   double t = 0.0;   // after the step
   double dt = 0.0;
+  int pressure_passes = 0;  // FlowOptions::pressure_iterations: viscous solves and projections taken again
   int projection_cycles = 0;
   int prediction_cycles = 0;
   int viscous_cycles = 0;
@@ -121,6 +128,8 @@ class NavierStokes {
   // that follow. The implicit coupling's products take their flow steps looser
   // (implicit_coupling.cpp).
   void set_tolerance_scale(double scale);
+  // FlowOptions::bdf2: the pressure increment the last step's projection added (per cell).
+  std::span<const double> pressure_increment() const;
   const FlowConditions<D>& conditions() const { return conditions_; }
   double time() const { return time_; }
   void set_time(double t) { time_ = t; }
@@ -261,6 +270,9 @@ class NavierStokes {
   void viscosity(double dt, StepStats& stats);
   void acceleration(double dt);
   void projection(double dt, StepStats& stats);
+  // viscosity, acceleration and projection; with FlowOptions::pressure_iterations, from the
+  // pressure solved for first.
+  void viscous_and_projection_stages(double dt, StepStats& stats);
 
   // max |div uf| over the leaves after the last projection.
   double max_divergence();
@@ -342,6 +354,9 @@ class NavierStokes {
   std::array<std::vector<double>, D> source_;  // advection sources g + nu lap u
   std::vector<double> div_, rhs_;
   FaceForce face_force_;
+  // When set, evaluate_force copies it instead of calling face_force_: the pressure
+  // iterations' passes take the step's force again without spreading it again.
+  const FaceField<D>* fixed_force_ = nullptr;
   MultigridWorkspace mg_;
   // Variable properties (empty unless set_properties was called).
   Properties properties_;

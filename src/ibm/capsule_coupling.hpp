@@ -282,7 +282,7 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // (membrane/stiffness_kernel.hpp) and dX the step's own displacement dt J u(t + dt); the
   // flow being affine in its force (u = u_explicit - L S K dX),
   //   (I + dt J L S K) dX = dt J u_explicit,
-  // solved by FGMRES (gmres.hpp) whose every product is the flow step taken again from the
+  // solved by FGMRES (common/gmres.hpp) whose every product is the flow step taken again from the
   // same start (fluid/time_step.hpp, rerun) with the force F - K v. The step is then taken
   // once more with F - K dX, and the nodes move with J u(t + dt) as Euler's do: by the
   // divergence-free kernels, so the volume stays. For K >= 0 the eigenvalues of

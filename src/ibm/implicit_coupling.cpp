@@ -9,8 +9,8 @@
 
 #include <fmt/format.h>
 
+#include "common/gmres.hpp"
 #include "ibm/capsule_coupling.hpp"
-#include "ibm/gmres.hpp"
 #include "membrane/errors.hpp"
 #include "parallel/exact_sum.hpp"
 

@@ -82,6 +82,10 @@ struct FluidConfig {
   // The viscous solve sees this step's body force, not the last step's (Basilisk's lag):
   // fluid::FlowOptions::current_force_in_viscous. carry_faces and the implicit coupling imply it.
   bool current_force_in_viscous = false;
+  // BDF2 steps (time.node_scheme = "bdf2"): at most this many GMRES iterations on the step's
+  // pressure, which then stays consistent at steps above the viscous times
+  // (fluid::FlowOptions::pressure_iterations); 0: one projection.
+  int pressure_iterations = 0;
   std::array<BoundaryConfig, 6> boundary{};
   MultigridConfig multigrid{};
   bool operator==(const FluidConfig&) const = default;

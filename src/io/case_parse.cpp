@@ -96,6 +96,7 @@ void parse_fluid(TableReader r, const DomainConfig& domain, int dim, FluidConfig
   r.read("crank_nicolson", f.crank_nicolson);
   r.read("carry_faces", f.carry_faces);
   r.read("current_force_in_viscous", f.current_force_in_viscous);
+  r.read("pressure_iterations", f.pressure_iterations);
   // Moved to each capsule (issue 29): one ratio for the whole flow would not say whose inside.
   for (const std::string_view moved : {"density_ratio", "viscosity_ratio"})
     if (double v = 0.0; r.read(moved, v))

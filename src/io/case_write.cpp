@@ -66,6 +66,7 @@ std::string to_toml(const CaseConfig& c) {
   line("crank_nicolson", b(c.fluid.crank_nicolson));
   line("carry_faces", b(c.fluid.carry_faces));
   line("current_force_in_viscous", b(c.fluid.current_force_in_viscous));
+  line("pressure_iterations", fmt::format("{}", c.fluid.pressure_iterations));
   out += "\n[fluid.multigrid]\n";
   line("tolerance", toml_number(c.fluid.multigrid.tolerance));
   line("max_cycles", fmt::format("{}", c.fluid.multigrid.max_cycles));

@@ -136,6 +136,17 @@ TEST(io_case_errors, ImplicitCouplingKeys) {
   EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\ncarry_faces = true\n[time]\ncoupling = \"implicit\"\n"
                                             "node_scheme = \"bdf2\"\n"),
               HasSubstr("time.node_scheme = \"bdf2\": BDF2 steps the flow by BDF2 too, with neither fluid.carry_faces"));
+  // The pressure iterations of BDF2's steps.
+  EXPECT_EQ(b.fluid.pressure_iterations, 0);
+  const CaseConfig p = parse_case_text(std::string(kBase) + "[fluid]\npressure_iterations = 3\n[time]\ncoupling = "
+                                                            "\"implicit\"\nnode_scheme = \"bdf2\"\n",
+                                       "c");
+  EXPECT_EQ(p.fluid.pressure_iterations, 3);
+  EXPECT_EQ(parse_case_text(to_toml(p), "c"), p);
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\npressure_iterations = 3\n"),
+              HasSubstr("fluid.pressure_iterations = 3: iterates the pressure of BDF2's steps"));
+  EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\npressure_iterations = -1\n"),
+              HasSubstr("fluid.pressure_iterations = -1"));
 }
 
 TEST(io_case_errors, MaxLevelBelowMinLevel) {

@@ -180,6 +180,10 @@ capsule_matches_one_rank "tube-implicit" 3 "${tube[@]}" --set 'time.coupling="im
 capsule_matches_one_rank "bdf2-step-control" 3 "${quick[@]}" --set 'time.coupling="auto"' --set 'time.node_scheme="bdf2"' \
   --set time.tolerance=0.1
 capsule_matches_one_rank "tube-bdf2" 3 "${tube[@]}" --set 'time.coupling="implicit"' --set 'time.node_scheme="bdf2"'
+# The pressure iterated in BDF2's steps (GMRES over whole passes, inner products exact), in
+# the tube: embedded walls and an inflow.
+capsule_matches_one_rank "tube-bdf2-pressure" 3 "${tube[@]}" --set 'time.coupling="implicit"' --set 'time.node_scheme="bdf2"' \
+  --set fluid.pressure_iterations=3
 # The seed case's scheme (midpoint nodes, adaptations in time, faces carried through them).
 seed=(run "$cases/relaxation_stokes.toml" --set adapt.max_level=5 --set adapt.wall_level=4 --set 'capsule[0].nodes=2562'
       --set time.t_end=0.02 --set output.diagnostics_interval=1 --set output.vtu=false --set output.checkpoint=false --quiet)

@@ -1,14 +1,14 @@
 // Flexible GMRES (gmres.hpp) on small dense systems against Eigen's LU: the solution, the
 // residual it reports, an exact preconditioner converging in one product, and a system it
 // cannot finish in the products it is given.
-#include "ibm/gmres.hpp"
+#include "common/gmres.hpp"
 
 #include <gtest/gtest.h>
 #include <Eigen/LU>
 
 #include <random>
 
-namespace capsflow::ibm {
+namespace capsflow {
 namespace {
 
 // I + a nonsymmetric random part: eigenvalues in a disc of radius `spread` around 1.
@@ -75,4 +75,4 @@ TEST(Gmres, ZeroRightHandSideIsSolvedByZero) {
 }
 
 }  // namespace
-}  // namespace capsflow::ibm
+}  // namespace capsflow

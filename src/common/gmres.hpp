@@ -1,6 +1,7 @@
 #pragma once
-// Flexible GMRES (Saad 1993), unrestarted, for the implicit coupling's system on the node
-// displacements (implicit_coupling.cpp): matrix-free (each product is a flow step), a right
+// Flexible GMRES (Saad 1993), unrestarted, for the systems solved over whole flow steps: the
+// implicit coupling's on the node displacements (ibm/implicit_coupling.cpp) and the flow's on
+// its pressure (fluid/ns_pressure_iterations.cpp): matrix-free (each product is a flow step), a right
 // preconditioner that may change between iterations, and an inner product the caller
 // supplies (on N ranks a sum over the capsules that every rank forms alike). Modified
 // Gram-Schmidt, Givens rotations; the residual norm comes from the rotations at no cost.
@@ -11,7 +12,7 @@
 #include <cmath>
 #include <vector>
 
-namespace capsflow::ibm {
+namespace capsflow {
 
 struct GmresResult {
   int iterations = 0;      // products with the operator
@@ -76,4 +77,4 @@ GmresResult fgmres(const Apply& apply, const Precondition& precondition, const D
   return out;
 }
 
-}  // namespace capsflow::ibm
+}  // namespace capsflow
