@@ -104,6 +104,7 @@ struct [[nodiscard]] StepStats {
   double t = 0.0;   // after the step
   double dt = 0.0;
   int pressure_passes = 0;  // FlowOptions::pressure_iterations: viscous solves and projections taken again
+  double pressure_residual = 0.0;  // and the increment they left, relative to the first one
   int projection_cycles = 0;
   int prediction_cycles = 0;
   int viscous_cycles = 0;

@@ -63,6 +63,8 @@ TEST(PressureIterations, LongStepsFollowTheShortOnes) {
     EXPECT_EQ(a.pressure_passes, 0);
     EXPECT_GE(b.pressure_passes, 1);
     EXPECT_LE(b.pressure_passes, 6);  // the first pass and at most 5 iterations
+    // Converged before the cap here: measured 3 iterations, 0.005-0.008 of the first increment.
+    EXPECT_LE(b.pressure_residual, 1e-2);
   }
   while (reference.ns.time() < 2.0 - 1e-9) (void)reference.ns.step();
   EXPECT_LT(iterated.last_increment(), 0.05 * lagged.last_increment());
