@@ -293,7 +293,7 @@ void check_time(const CaseConfig& c, const Checker& ck) {
     ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
             "BDF2 steps the flow by BDF2 too, with neither fluid.carry_faces nor fluid.crank_nicolson: set them "
             "to false");
-  ck.non_negative("fluid.pressure_iterations", c.fluid.pressure_iterations);
+  ck.at_least("fluid.pressure_iterations", c.fluid.pressure_iterations, 0);
   if (c.fluid.pressure_iterations > 0 && c.time.node_scheme != NodeScheme::bdf2)
     ck.fail("fluid.pressure_iterations", fmt::format("{}", c.fluid.pressure_iterations),
             "iterates the pressure of BDF2's steps: set time.node_scheme = \"bdf2\" (with time.coupling = "
