@@ -366,11 +366,15 @@ void NavierStokes<D>::evaluate_force() {
   // which must agree: otherwise u = u' + dt (g_after - g_before) keeps dt times the force on
   // the cells beside such a side).
   for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double, const tree::Level<D>& lv) {
-    const Index outside = std::max(lo, hi);
-    if (outside >= lv.boundary_begin() &&
-        conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann)
-      force_[d][hi] = 0.0;
+    if (normal_velocity_prescribed(lo, hi, lv)) force_[d][hi] = 0.0;
   });
+}
+
+template <int D>
+bool NavierStokes<D>::normal_velocity_prescribed(Index lo, Index hi, const tree::Level<D>& lv) const {
+  const Index outside = std::max(lo, hi);
+  return outside >= lv.boundary_begin() &&
+         conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann;
 }
 
 template <int D>
@@ -401,10 +405,7 @@ void NavierStokes<D>::acceleration(double dt) {
       // On a side where the normal velocity is prescribed (wall, moving wall, inflow) no
       // acceleration (evaluate_force zeroed the force there): the face keeps its prescribed
       // velocity and the homogeneous Neumann pressure balances the rest exactly.
-      const Index outside = std::max(lo, hi);
-      if (outside >= lv.boundary_begin() &&
-          conditions_.pressure.side[lv.boundary_side[outside - lv.boundary_begin()]].kind == tree::BcKind::neumann)
-        return;
+      if (normal_velocity_prescribed(lo, hi, lv)) return;
       if (options_.bdf2) {  // the face mean of the cells' acceleration (FlowOptions::bdf2)
         uf_[d][hi] += dt * 0.5 * (g[d][lo] + g[d][hi]);
         return;

@@ -294,6 +294,9 @@ class NavierStokes {
   // g = cell mean of alpha (force - grad p); u += dt g unless only_g.
   void centred_gradient(double dt, bool only_g = false);
   void evaluate_force();
+  // Whether the face between lo and hi lies on a side whose normal velocity is prescribed
+  // (wall, moving wall, inflow: the pressure's homogeneous Neumann sides).
+  bool normal_velocity_prescribed(Index lo, Index hi, const tree::Level<D>& lv) const;
   void shift_by_g(int d, double s);  // u_d += s g_d on the leaves
   MultigridStats variable_viscous_solve(int d, double dt, double theta);
   // Crank-Nicolson's explicit half of the divided viscous equation: rhs -= (1 - theta)/theta
