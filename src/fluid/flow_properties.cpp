@@ -115,12 +115,14 @@ void NavierStokes<D>::update_properties() {
     std::array<std::span<double>, 2> both{rho, mu};
     tree_.update_ghosts(tree::Distribution::Fields(both.data(), both.size()));
   }
-  double rho_min = 1e300, mu_min = 1e300, rho_max = 0.0;
+  double rho_min = 1e300, mu_min = 1e300, rho_max = 0.0, nu_max = 0.0;
   for (const Index c : tree_.owned_leaves()) {
     rho_max = std::max(rho_max, rho[c]);
     rho_min = std::min(rho_min, rho[c]);
     mu_min = std::min(mu_min, mu[c]);
+    nu_max = std::max(nu_max, mu[c] / rho[c]);
   }
+  nu_max_ = tree_.global_max(nu_max);
   // The least over all ranks: it scales the viscous solves' tolerance, which must be one
   // number on every rank (a per-rank value let ranks stop at different cycles). NaN stays NaN.
   rho_min = -tree_.global_max(-rho_min);
@@ -205,6 +207,7 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
     EllipticOperator<D, EmbeddedFaces<D>, ConstantCells> op(
         tree_, {.value = mu_, .data = mu_faces_.data(), .full = mu_uniform_.data()}, {-rho_min_ / (theta * dt)},
         conditions_.velocity[d]);
+    choose_viscous_guess(d, dt, op);
     return solve(op, u, rhs_, mg_, opt);
   }
   // The multigrid relaxes parents too: they take the volume mean of their children's
@@ -212,6 +215,7 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   tree_.restrict_and_exchange(lambda_);
   EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {mu_faces_.data()}, {lambda_.data()},
                                                   conditions_.velocity[d]);
+  choose_viscous_guess(d, dt, op);
   return solve(op, u, rhs_, mg_, opt);
 }
 

@@ -322,6 +322,7 @@ void NavierStokes<D>::viscosity(double dt, StepStats& stats) {
     EllipticOperator<D, ConstantFaces, ConstantCells> op(tree_, {theta * mu_}, {lambda}, conditions_.velocity[d]);
     MultigridOptions opt = options_.viscous;
     opt.tolerance *= options_.density / dt;  // residual of (rho/dt) u - div(mu grad u)
+    choose_viscous_guess(d, dt, op);
     const auto s = solve(op, u, rhs_, mg_, opt);
     stats.viscous_cycles += s.cycles;
     stats.count_solve(s.converged);

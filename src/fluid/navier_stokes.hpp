@@ -315,6 +315,20 @@ class NavierStokes {
     tree_.for_each_leaf([&](Index c) { rhs_[c] -= w * div_[c]; });
     boundary_time_ = t_new;
   }
+  // The viscous solve's first guess for component d: u* = u^ + dt g (the right-hand side's
+  // velocity, near the solution while viscosity moves little in a step) or u^ (near it once
+  // the viscous time at the force's scale is short against the step, which then damps a
+  // grid-scale dt g away). The one with the smaller residual (docs/numerics.md: a third to
+  // a half of the cycles at long steps).
+  template <class Op>
+  void choose_viscous_guess(int d, double dt, const Op& op) {
+    std::span<double> u = tree_.values(u_[d]);
+    const std::span<const double> g = tree_.values(g_[d]);
+    const double from_star = residual_max(op, u, rhs_, mg_);
+    tree_.for_each_owned_leaf([&](Index c) { u[c] -= dt * g[c]; });
+    if (residual_max(op, u, rhs_, mg_) < from_star) return;
+    tree_.for_each_owned_leaf([&](Index c) { u[c] += dt * g[c]; });
+  }
   // Embedded walls (ns_embedded.cpp): the geometry and its operators after the tree changed;
   // the viscous solve of component d; the projection's solve and face update; the cell mean
   // of the face accelerations (open faces only).
@@ -370,6 +384,7 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   double rho_min_ = 1.0;                        // scales the viscous tolerance
+  double nu_max_ = 1.0;                         // the largest mu / rho: the shortest viscous times
   bool uniform_density_ = false;                // variable viscosity only
   std::vector<std::pair<Index, int>> varying_;  // the leaves where mu varies (varying_viscosity)
   std::vector<std::uint8_t> mu_uniform_;        // per cell slot: every face at the constant mu_

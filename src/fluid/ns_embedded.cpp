@@ -113,6 +113,7 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
   // a sixth of the step; the steady sphere and cylinder arrays (dt = 0.2) ran 2.5x faster
   // without them, to the same drag.
   opt.wall_band_passes = 0;
+  choose_viscous_guess(d, dt, op);
   return solve(op, u, rhs_, mg_, opt);
 }
 

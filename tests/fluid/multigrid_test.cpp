@@ -213,5 +213,25 @@ TEST(Multigrid, NonFiniteRightHandSideStopsAndReportsNotConverged) {
   EXPECT_EQ(stats.final_residual, std::numeric_limits<double>::infinity());
 }
 
+// residual_max, the residual a caller compares first guesses by, is the one the solve starts
+// from: the same maximum, to the bit, on an adaptive tree with a Helmholtz term.
+TEST(Multigrid, ResidualMaxIsTheSolvesInitialResidual) {
+  Tree<2> t({.roots = {1, 1}, .max_level = 5});
+  t.refine_to([](const tree::Box<2>& b) { return b.lo[0] < 0.5 ? 5 : 4; });
+  std::vector<double> a(t.num_cells(), 0.0), b(t.num_cells(), 0.0);
+  t.for_each_leaf([&](tree::Index c) {
+    const auto x = t.center(c);
+    a[c] = std::sin(3.0 * x[0]) * x[1];
+    b[c] = std::cos(5.0 * x[1]) + x[0];
+  });
+  EllipticOperator<2, ConstantFaces, ConstantCells> op(t, ConstantFaces{0.5}, ConstantCells{-40.0},
+                                                       BoundaryConditions<2>::all(BcKind::dirichlet));
+  MultigridWorkspace ws;
+  const double guess = residual_max(op, a, b, ws);
+  const MultigridStats stats = solve(op, a, b, ws, {.tolerance = 1e-8, .max_cycles = 1});
+  EXPECT_GT(guess, 1.0);
+  EXPECT_EQ(guess, stats.initial_residual);
+}
+
 }  // namespace
 }  // namespace capsflow::fluid

@@ -165,6 +165,17 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
   }
 }
 
+// max |b - L(a)| over every rank's leaves, for a first guess to be compared before a solve
+// (a's halos synced here); for operators that are not singular.
+template <class Op>
+double residual_max(const Op& op, std::span<double> a, std::span<const double> b, MultigridWorkspace& ws) {
+  const tree::Tree<Op::kDimension>& t = op.tree();
+  CAPSFLOW_ASSERT(!op.singular(), "multigrid residual_max: a singular operator's residual needs its mean removed");
+  ws.resize(t.num_cells(), false);
+  t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
+  return t.global_max(op.residual(a, b, ws.residual));
+}
+
 template <class Op>
 MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> b,
                      MultigridWorkspace& ws, const MultigridOptions& opt) {
