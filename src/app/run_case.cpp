@@ -186,8 +186,8 @@ class FlowRun {
       if (capsules_) capsules_->restore(state.extras, step);
       budget_->restore(state.extras);
       for (const auto& e : state.extras)
-        if (e.name == "step_control_proposal" && e.values.size() == 1)
-          control_.restore(e.values[0]);
+        if (e.name == "step_control_proposal" && (e.values.size() == 1 || e.values.size() == 2))
+          control_.restore(e.values[0], e.values.size() == 2 ? e.values[1] : 0.0);  // older: no ceiling
         else if (e.name == "flow_history_dt" && e.values.size() == 1)
           ns_.set_history_dt(e.values[0]);
       // The faces (absent from older checkpoints and ones written before any step); on N
@@ -258,11 +258,28 @@ class FlowRun {
       fluid::StepStats st;
       try {
         st = time_step_.run();
+      } catch (const fluid::StepTooLong& e) {
+        // The step control chose a step the implicit solve could not take: the flow is back
+        // at the step's start and nothing has moved, so it is taken again at half the length
+        // (a few times; with a fixed dt the run stops, the message naming the keys).
+        if (!control_.enabled() || rejected_in_a_row_ >= kMostRejections)
+          throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
+        const double tried = ns_.stable_dt();
+        control_.reject(tried);
+        ++rejected_in_a_row_;
+        ++rejected_;
+        if (!request_.quiet)
+          on_root(comm_, [&] {
+            std::fprintf(stderr, "step %ld, t = %.6g: the implicit solve did not converge at dt = %.3g; taken again at %.3g\n",
+                         step + 1, ns_.time(), tried, control_.next(ns_.time()));
+          });
+        continue;
       } catch (const std::runtime_error& e) {
         if (!capsules_) throw;  // a capsule's stage failed: a blow-up of this run
         throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
       }
       ++step;
+      rejected_in_a_row_ = 0;
       check_convergence(st, step);
       if (control_.enabled()) {
         const auto e = capsules_->coupling().node_error();
@@ -351,9 +368,9 @@ class FlowRun {
         if (implicit.steps > 0)
           std::fprintf(stderr,
                        "implicit coupling: %lld of %.0f steps implicit, %.2f flow steps each besides its two for the "
-                       "solve, at most %d\n",
+                       "solve, at most %d; %ld step(s) taken again shorter\n",
                        static_cast<long long>(implicit.steps), n, double(implicit.products) / double(implicit.steps),
-                       implicit.most_products);
+                       implicit.most_products, rejected_);
       }
     }
   }
@@ -436,7 +453,7 @@ class FlowRun {
     // The capsules' states from their owners (collective), on rank 0, which writes them.
     std::vector<io::ExtraArray> extras = capsules_ ? capsules_->checkpoint_extras() : std::vector<io::ExtraArray>{};
     for (io::ExtraArray& e : budget_->checkpoint_extras()) extras.push_back(std::move(e));
-    if (control_.enabled()) extras.push_back({"step_control_proposal", {1}, {control_.proposal()}});
+    if (control_.enabled()) extras.push_back({"step_control_proposal", {2}, {control_.proposal(), control_.ceiling()}});
     if (case_.time.node_scheme == io::NodeScheme::bdf2)
       extras.push_back({"flow_history_dt", {1}, {ns_.history_dt()}});
     // The faces the next step starts from, where it reads them (midpoint nodes, carry_faces):
@@ -586,6 +603,11 @@ class FlowRun {
   std::optional<EnergyBudget<D>> budget_;  // the energy columns of diagnostics.csv
   ProgressLine progress_;
   long unconverged_since_row_ = 0;  // the next diagnostics row's mg_unconverged
+  // Steps the implicit solve could not take and the step control took again shorter: in a
+  // row (at most kMostRejections, a step 1/64 of the proposal) and in the run.
+  static constexpr int kMostRejections = 6;
+  int rejected_in_a_row_ = 0;
+  long rejected_ = 0;
   // A restart's projected faces, this rank's leaves' rows, until restored (after distribution).
   std::vector<double> restart_faces_;
   bool restart_faces_current_ = true;

@@ -15,6 +15,16 @@ void StepControl::after_step(double dt, double error, int order) {
   const double factor =
       error_ > 0.0 ? std::clamp(0.9 * std::pow(options_.tolerance / error_, 1.0 / order), 0.25, 2.0) : 2.0;
   next_ = dt * factor;
+  if (ceiling_ > 0.0) {
+    ceiling_ *= kCeilingGrowth;
+    next_ = std::min(next_, ceiling_);
+  }
+  if (options_.dt_max > 0.0) next_ = std::min(next_, options_.dt_max);
+}
+
+void StepControl::reject(double dt) {
+  next_ = 0.5 * dt;
+  ceiling_ = kCeiling * dt;
   if (options_.dt_max > 0.0) next_ = std::min(next_, options_.dt_max);
 }
 

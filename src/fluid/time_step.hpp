@@ -18,11 +18,21 @@
 #include <chrono>
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <vector>
 
 #include "fluid/navier_stokes.hpp"
 
 namespace capsflow::fluid {
+
+// Thrown by a body's correct() that could not solve at this step's length (an implicit
+// coupling's solve that did not converge in its products). TimeStep::run puts the flow back
+// at the step's start before passing it on, so the caller may take the step again, shorter;
+// nothing has moved yet.
+class StepTooLong : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 class StepBody {
  public:
@@ -67,8 +77,13 @@ class TimeStep {
           add_cycles(flow, again);
           return again;
         };
-        for (StepBody* b : bodies_)
-          if (b->implicit()) b->correct(rerun);
+        try {
+          for (StepBody* b : bodies_)
+            if (b->implicit()) b->correct(rerun);
+        } catch (const StepTooLong&) {
+          ns_.restore_state(*saved);
+          throw;
+        }
       }
     } catch (...) {
       for (StepBody* b : bodies_) b->flow_failed();

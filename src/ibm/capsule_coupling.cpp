@@ -170,10 +170,12 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
                                 "shortens the kernels' reach)";
       break;
     case Cause::implicit_solve:
+      // The solve fails after the step's flow: the flow's last step is this one.
       likely = fmt::format("dt = {:.3g} is long for this membrane's stiffness (the solve's products grow with dt over the "
                            "explicit coupling's limit, {:.3g} here): raise time.implicit_max_iterations or lower time.dt",
-                           dt, limit);
-      break;
+                           ns_.last_dt(), limit);
+      // A shorter step may succeed: the caller decides (fluid::TimeStep restores the flow).
+      throw fluid::StepTooLong(fmt::format("{}. Likely cause: {}.", where, likely));
   }
   throw std::runtime_error(fmt::format("{}. Likely cause: {}.", where, likely));
 }

@@ -171,9 +171,9 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   const auto identity = [](const Eigen::VectorXd& v) { return v; };
   Eigen::VectorXd displacement;
   const GmresResult solved = fgmres(apply, identity, dot, b, displacement, implicit_.tolerance, implicit_.max_iterations);
-  implicit_stats_.steps += 1;
-  implicit_stats_.products += solved.iterations;
+  implicit_stats_.products += solved.iterations;  // a failed solve's too: they were spent
   implicit_stats_.most_products = std::max(implicit_stats_.most_products, solved.iterations);
+  if (solved.converged) implicit_stats_.steps += 1;
   if (!solved.converged)
     fail(step, fmt::format("the implicit coupling's solve stopped at {} flow steps with the residual at {:.3g} of its "
                            "start, above time.implicit_tolerance = {:.3g}",

@@ -490,6 +490,38 @@ TEST(AppStepControl, HalvingTheToleranceHalvesTheError) {
   EXPECT_GT(steps[3], steps[0]);
 }
 
+// A step the implicit solve cannot take (one product allowed) is taken again at half the
+// length, and the ceiling after it keeps such failures rare; a restart from a checkpoint
+// after one (step 20) takes the same steps, its later failures included (the ceiling is in
+// the checkpoint). With a fixed dt the same failure stops the run (status 3) naming the
+// keys. Measured to t = 0.1: 6 steps taken again in 68, at steps 1, 19, 21, 25, 39 and 66
+// (65 in 72 without the ceiling).
+TEST(AppStepControl, AStepWhoseImplicitSolveFailsIsTakenAgainShorter) {
+  const fs::path dir = scratch("step_rejected");
+  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
+                           "/relaxation_quick.toml --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                           "--set capsule[0].radius=0.6 --set time.t_end=0.1 --set output.vtu=false "
+                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"implicit\"' "
+                           "--set 'time.node_scheme=\"bdf2\"' --set time.implicit_max_iterations=1 ";
+  const std::string controlled =
+      base + "--set time.tolerance=0.1 --set output.checkpoint=true --set output.checkpoint_interval=20 ";
+  const auto r = capsflow(controlled + "--out " + (dir / "full").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("the implicit solve did not converge at dt = "));
+  const auto table = rows_of(dir / "full" / "diagnostics.csv");
+  EXPECT_NEAR(std::stod(table.back()[1]), 0.1, 1e-12);
+  std::size_t retaken = 0;
+  for (std::size_t p = r.err.find("; taken again at "); p != std::string::npos; p = r.err.find("; taken again at ", p + 1))
+    ++retaken;
+  EXPECT_GE(retaken, 2u);
+  EXPECT_LE(retaken * 5, table.size() - 1) << retaken << " of " << table.size() - 1;
+  expect_restart_repeats_run(dir, controlled, "checkpoint_000020.h5", table);
+  const auto fixed = capsflow(base + "--quiet --set time.dt=0.01 --out " + (dir / "fixed").string(), dir);
+  EXPECT_EQ(fixed.status, 3);
+  EXPECT_THAT(fixed.err, ::testing::HasSubstr("raise time.implicit_max_iterations or lower time.dt"));
+  EXPECT_THAT(fixed.err, ::testing::HasSubstr("dt = 0.01 is long"));
+}
+
 // The coarse quick relaxation to t = 0.02 with the step control at tolerance 0.1, a row per
 // step and a checkpoint every `interval` steps; `scheme`: the time.* keys of the coupling.
 std::string controlled_quick_relaxation(const std::string& scheme, int interval) {

@@ -68,9 +68,30 @@ TEST(StepControl, StepsLandOnTheInstantsInEqualSteps) {
 TEST(StepControl, RestartTakesTheSameNextStep) {
   StepControl a({.tolerance = 0.01, .first_dt = 1e-3});
   a.after_step(1e-3, 0.002);
+  a.reject(4e-3);
+  a.after_step(2e-3, 1e-6);
   StepControl b({.tolerance = 0.01, .first_dt = 1e-3});
-  b.restore(a.proposal());
+  b.restore(a.proposal(), a.ceiling());
   EXPECT_EQ(b.next(0.5), a.next(0.5));
+  a.after_step(a.next(0.5), 1e-6);
+  b.after_step(b.next(0.5), 1e-6);  // the ceiling came back too
+  EXPECT_EQ(b.next(0.6), a.next(0.6));
+}
+
+// A step whose implicit solve failed: half of it next, then proposals below a ceiling of
+// 0.7 times it that rises 5% a step, however small the error.
+TEST(StepControl, ARejectedStepIsHalvedAndCeilsTheNextOnes) {
+  StepControl c({.tolerance = 0.01, .first_dt = 1e-3});
+  c.reject(0.1);
+  EXPECT_DOUBLE_EQ(c.next(0.0), 0.05);
+  EXPECT_DOUBLE_EQ(c.ceiling(), 0.07);
+  c.after_step(0.05, 1e-9);  // would double
+  EXPECT_DOUBLE_EQ(c.next(0.05), 0.07 * 1.05);
+  c.after_step(0.0735, 1e-9);
+  EXPECT_DOUBLE_EQ(c.next(0.1235), 0.07 * 1.05 * 1.05);
+  StepControl capped({.tolerance = 0.01, .first_dt = 1e-3, .dt_max = 0.02});
+  capped.reject(0.1);
+  EXPECT_DOUBLE_EQ(capped.next(0.0), 0.02);  // dt_max still caps
 }
 
 }  // namespace
