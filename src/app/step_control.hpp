@@ -12,12 +12,12 @@
 // by time.dt_max. A step is not rejected for its error: a flow step cannot be taken back
 // once the adaptation followed it, so an error above the tolerance only shortens the next
 // step (the first-order error it adds is of the same order). A step whose implicit solve
-// failed is taken again at half the length (reject): nothing had moved yet. Steps land on the multiples of
-// adapt.interval_time, so adaptations happen at fixed instants whatever the steps, and runs
-// at two tolerances adapt at the same instants (studies stay comparable): the steps up to
-// the next multiple are equal, each the longest that divides the distance evenly without
-// exceeding the proposal; a proposal longer than the distance runs on to the last multiple
-// it reaches.
+// failed is taken again at half the length (reject): nothing had moved yet. Steps land on
+// the multiples of adapt.interval_time, so adaptations happen at fixed instants whatever
+// the steps, and runs at two tolerances adapt at the same instants (studies stay
+// comparable): the steps up to the next multiple are equal, each the longest that divides
+// the distance evenly without exceeding the proposal; a proposal longer than the distance
+// runs on to the last multiple it reaches.
 namespace capsflow::app {
 
 class StepControl {
