@@ -34,7 +34,7 @@ struct Box {
   NavierStokes<2> ns;
 };
 
-// Four steps' viscous cycles, three components each, to 1e-6: measured 9 at dt = 1e-3 (a
+// Four steps' viscous cycles, two components each, to 1e-6: measured 9 at dt = 1e-3 (a
 // cell's viscous time here) and 35 at dt = 0.5, against 15 and 45 from u* always. The
 // bounds keep one cycle's margin; the solves converge whichever guess they start from.
 TEST(ViscousGuess, StepsStartFromTheGuessWithTheSmallerResidual) {
