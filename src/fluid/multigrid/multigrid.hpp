@@ -165,15 +165,24 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
   }
 }
 
+namespace detail {
+// res = b - L(a) with a's halos synced first; max |res| over this rank's owned leaves (a
+// ghost's stencil may reach cells this rank does not have).
+template <class Op>
+double synced_residual(const Op& op, std::span<double> a, std::span<const double> b, std::span<double> res) {
+  // Quadratic halo values keep the leaf operator second order across resolution jumps.
+  op.tree().sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
+  return op.residual(a, b, res);
+}
+}  // namespace detail
+
 // max |b - L(a)| over every rank's leaves, for a first guess to be compared before a solve
 // (a's halos synced here); for operators that are not singular.
 template <class Op>
 double residual_max(const Op& op, std::span<double> a, std::span<const double> b, MultigridWorkspace& ws) {
-  const tree::Tree<Op::kDimension>& t = op.tree();
   CAPSFLOW_ASSERT(!op.singular(), "multigrid residual_max: a singular operator's residual needs its mean removed");
-  ws.resize(t.num_cells(), false);
-  t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
-  return t.global_max(op.residual(a, b, ws.residual));
+  ws.resize(op.tree().num_cells(), false);
+  return op.tree().global_max(detail::synced_residual(op, a, b, ws.residual));
 }
 
 template <class Op>
@@ -195,12 +204,8 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
   // The residual comes restricted, unless the mean is then removed from its leaves.
   const bool restricted = !singular;
   auto compute_residual = [&] {
-    // Quadratic halo values keep the leaf operator second order across resolution jumps.
-    t.sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
-    const double worst = op.residual(a, b, res);
-    // Distributed: residual() took the maximum over the owned leaves only (a ghost's
-    // stencil may reach cells this rank does not have); then over all ranks.
-    if (!singular) return t.global_max(worst);
+    const double worst = detail::synced_residual(op, a, b, res);
+    if (!singular) return t.global_max(worst);  // distributed: then over all ranks
     detail::remove_mean(op, res);
     return detail::leaf_max_abs<D>(t, res);
   };
