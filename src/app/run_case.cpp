@@ -105,6 +105,14 @@ fluid::AdaptationOptions adaptation_options(const io::AdaptConfig& a) {
           .min_level = a.min_level, .wall_level = a.wall_level};
 }
 
+// A capsule failure's own part, "capsule coupling: step N (t = ...): <what>. Likely cause:
+// ...", for the line that says the step is taken again (the advice is for a run that stops).
+std::string failure_without_advice(const std::string& message) {
+  std::string what = message.substr(0, message.find(". Likely cause:"));
+  if (const auto colon = what.find("): "); colon != std::string::npos) what.erase(0, colon + 3);
+  return what;
+}
+
 std::string numbered(const char* stem, long step, const char* ext) {
   return fmt::format("{}_{:06d}.{}", stem, step, ext);
 }
@@ -259,9 +267,11 @@ class FlowRun {
       try {
         st = time_step_.run();
       } catch (const fluid::StepTooLong& e) {
-        // The step control chose a step the implicit solve could not take: the flow is back
-        // at the step's start and nothing has moved, so it is taken again at half the length
-        // (a few times; with a fixed dt the run stops, the message naming the keys).
+        // The step control chose a step too long for the implicit solve, or one whose
+        // predicted or final positions fold an element or touch a wall (ibm::CapsuleCoupling::
+        // fail): the flow is back at the step's start and nothing has moved, so it is taken
+        // again at half the length (a few times; with a fixed dt the run stops, the message
+        // naming the keys).
         if (!control_.enabled() || rejected_in_a_row_ >= kMostRejections)
           throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
         const double tried = ns_.stable_dt();
@@ -270,8 +280,8 @@ class FlowRun {
         ++rejected_;
         if (!request_.quiet)
           on_root(comm_, [&] {
-            std::fprintf(stderr, "step %ld, t = %.6g: the implicit solve did not converge at dt = %.3g; taken again at %.3g\n",
-                         step + 1, ns_.time(), tried, control_.next(ns_.time()));
+            std::fprintf(stderr, "step %ld, t = %.6g: dt = %.3g was too long (%s); taken again at %.3g\n", step + 1,
+                         ns_.time(), tried, failure_without_advice(e.what()).c_str(), control_.next(ns_.time()));
           });
         continue;
       } catch (const std::runtime_error& e) {

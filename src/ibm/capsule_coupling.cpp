@@ -144,7 +144,12 @@ double CapsuleCoupling::node_power(int k) const {
 
 void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const {
   const std::string where = fmt::format("capsule coupling: step {} (t = {:.6g}): {}", step, ns_.time(), what);
-  const double dt = last_dt_ > 0.0 ? last_dt_ : ns_.options().dt, limit = stability_limit();
+  // The step being taken (its flow taken at the step's end check), else the one that moved
+  // the nodes.
+  const double dt = at_step_end_ ? ns_.last_dt()
+                    : stage_open_ ? ns_.stable_dt()
+                                  : (last_dt_ > 0.0 ? last_dt_ : ns_.options().dt);
+  const double limit = stability_limit();
   const bool above = dt > limit && !implicit_.enabled;  // the implicit coupling has no such limit
   const std::string unstable = fmt::format(
       "dt = {:.3g} above the membrane stability limit of the explicit coupling, measured {:.3g} here "
@@ -154,7 +159,16 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
       implicit_.enabled ? fmt::format("the implicit coupling is stable at dt = {:.3g}", dt)
                         : fmt::format("dt = {:.3g} is below the measured stability limit {:.3g}", dt, limit);
   std::string likely;
-  switch (cause) {
+  const bool predicted = stage_open_ && !at_step_end_ && scheme_ == NodeScheme::bdf2 && bdf2_step_;
+  if (at_step_end_ && cause != Cause::wall)
+    likely = fmt::format("dt = {:.3g} is long for the implicit step, which takes the membrane force linearised about "
+                         "the step's predicted positions: lower time.dt, or set time.tolerance to choose the step",
+                         dt);
+  else if (predicted && cause == Cause::instability)
+    likely = fmt::format("dt = {:.3g} is long for BDF2's prediction of the positions, X + dt V_last, where the step "
+                         "takes the forces: lower time.dt, or set time.tolerance to choose the step",
+                         dt);
+  else switch (cause) {
     case Cause::instability:
       likely = above ? unstable : stable + ", so a capsule pressed against a wall or folded by the flow is likelier";
       break;
@@ -174,10 +188,16 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
       likely = fmt::format("dt = {:.3g} is long for this membrane's stiffness (the solve's products grow with dt over the "
                            "explicit coupling's limit, {:.3g} here): raise time.implicit_max_iterations or lower time.dt",
                            ns_.last_dt(), limit);
-      // A shorter step may succeed: the caller decides (fluid::TimeStep restores the flow).
-      throw fluid::StepTooLong(fmt::format("{}. Likely cause: {}.", where, likely));
+      break;
   }
+  // A shorter step may succeed: the caller decides (fluid::TimeStep restores the flow).
+  if (shorter_may_help(cause)) throw fluid::StepTooLong(fmt::format("{}. Likely cause: {}.", where, likely));
   throw std::runtime_error(fmt::format("{}. Likely cause: {}.", where, likely));
+}
+
+bool CapsuleCoupling::shorter_may_help(Cause cause) const {
+  if (!stage_open_) return false;  // the nodes have moved: the step cannot be taken again
+  return cause == Cause::implicit_solve || at_step_end_ || (scheme_ == NodeScheme::bdf2 && bdf2_step_);
 }
 
 void CapsuleCoupling::fail_stencil(int step, int k, const StencilError& e) const {
@@ -580,6 +600,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
 // (X*, or X), on one tree: the adaptation comes after the step.
 void CapsuleCoupling::forces() {
   const int step = static_cast<int>(steps_ + 1);
+  stage_open_ = true;
   implicit_step_ = implicit_.enabled && num_capsules() > 0 && !(ns_.stable_dt() <= implicit_.explicit_below);
   if (distributed()) {
     distributed_forces(step);
@@ -609,6 +630,7 @@ void CapsuleCoupling::flow_failed() { force_ready_ = false; }  // the spread for
 
 void CapsuleCoupling::interpolation() {
   const int step = static_cast<int>(steps_ + 1);
+  stage_open_ = false;
   force_ready_ = false;
   interpolate_velocities(step);  // on N ranks routed (interpolate_into)
   for (NodeBoxes& b : boxes_) b.clear();  // their arrays are kept: a step's boxes fill them again

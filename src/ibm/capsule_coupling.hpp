@@ -398,8 +398,19 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // The implicit coupling's solve that did not converge is its own cause.
   enum class Cause : unsigned char { instability, band, wall, implicit_solve };
   // Throws std::runtime_error naming the step, the time, `what` and the likely cause with the
-  // keys that change it: one message a user can act on, with no internal name in it.
+  // keys that change it: one message a user can act on, with no internal name in it. Throws
+  // fluid::StepTooLong (the same message) where a shorter step may succeed and nothing has
+  // moved yet (shorter_may_help): the caller decides (app/run_case.cpp takes the step again
+  // at half its length under time.tolerance, and stops otherwise).
   [[noreturn]] void fail(int step, const std::string& what, Cause cause = Cause::instability) const;
+  // Between the forces and the interpolation (the flow restored, the nodes not moved), a
+  // failure at positions the step's length sets: BDF2's extrapolated X* = X + dt V_last,
+  // the implicit step's end (check_step_end), or the implicit solve itself.
+  [[nodiscard]] bool shorter_may_help(Cause cause) const;
+  // Where the implicit step will leave capsule k's nodes, before they move: an element
+  // folded or a node on an embedded wall there fails (shorter_may_help), where the step
+  // would otherwise end folded and stop the next one.
+  void check_step_end(int step, int k, const Eigen::Matrix3Xd& end);
   [[noreturn]] void fail_stencil(int step, int k, const StencilError& e) const;
   [[nodiscard]] Capsule* owned(int i) const;
   // Embedded walls: fails (Cause::wall) when a node at `at` of capsule k touches one (comes
@@ -492,6 +503,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   bool implicit_step_ = false;  // implicit(): this step's
   bool bdf2_step_ = false;      // this step is BDF2's (bdf2_weights)
   bool bdf2_last_ = false;      // the last step was (node_error)
+  bool stage_open_ = false;     // from forces() to interpolation() (shorter_may_help)
+  bool at_step_end_ = false;    // inside check_step_end
   ImplicitStats implicit_stats_;
   double implicit_seconds_ = 0.0;  // inside correct(), besides its flow steps (see motion)
 };

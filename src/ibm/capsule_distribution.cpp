@@ -57,7 +57,24 @@ void CapsuleCoupling::collectively(const std::function<void()>& f) const {
     f();
     return;
   }
-  parallel::all_or_none(forest_->comm(), f);
+  // all_or_none throws std::runtime_error on every rank; a failure that a shorter step may
+  // mend (fluid::StepTooLong, see fail) stays one if it was that on every rank that failed.
+  bool failed_for_good = false;
+  try {
+    parallel::all_or_none(forest_->comm(), [&] {
+      try {
+        f();
+      } catch (const fluid::StepTooLong&) {
+        throw;
+      } catch (...) {
+        failed_for_good = true;
+        throw;
+      }
+    });
+  } catch (const std::runtime_error& e) {
+    if (any_rank(failed_for_good)) throw;
+    throw fluid::StepTooLong(e.what());
+  }
 }
 
 bool CapsuleCoupling::any_rank(bool local) const {

@@ -52,6 +52,22 @@ void CapsuleCoupling::set_implicit(const ImplicitOptions& o) {
   implicit_ = o;
 }
 
+void CapsuleCoupling::check_step_end(int step, int k, const Eigen::Matrix3Xd& end) {
+  struct AtEnd {  // back when the check ends, by a throw too
+    bool& flag;
+    explicit AtEnd(bool& f) : flag(f) { flag = true; }
+    ~AtEnd() { flag = false; }
+    AtEnd(const AtEnd&) = delete;
+    AtEnd& operator=(const AtEnd&) = delete;
+  } at_end(at_step_end_);
+  check_embedded_walls(step, k, end);
+  try {
+    (void)capsule(k).model.energy(end);
+  } catch (const membrane::ElementError& e) {
+    fail(step, fmt::format("capsule {}: element {} would end the step inverted or collapsed ({})", k, e.element(), e.what()));
+  }
+}
+
 void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   if (!implicit()) return;
   if (scheme_ != NodeScheme::euler && scheme_ != NodeScheme::bdf2)
@@ -173,7 +189,6 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   const GmresResult solved = fgmres(apply, identity, dot, b, displacement, implicit_.tolerance, implicit_.max_iterations);
   implicit_stats_.products += solved.iterations;  // a failed solve's too: they were spent
   implicit_stats_.most_products = std::max(implicit_stats_.most_products, solved.iterations);
-  if (solved.converged) implicit_stats_.steps += 1;
   if (!solved.converged)
     fail(step, fmt::format("the implicit coupling's solve stopped at {} flow steps with the residual at {:.3g} of its "
                            "start, above time.implicit_tolerance = {:.3g}",
@@ -181,6 +196,18 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
          Cause::implicit_solve);
   // The step itself, with F - K dX.
   step_with(stiffness_times(displacement));
+  // Where the nodes will move with this flow (advance_nodes' rule): checked before they do,
+  // so that a fold or a wall there fails while a shorter step can still be taken.
+  const Eigen::VectorXd end_velocity = interpolated();
+  collectively([&] {
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const Capsule& c = capsule(ids[i]);
+      Eigen::Matrix3Xd end = c.x + (w.b * dt) * cblock(end_velocity, i);
+      if (bdf2_step_) end += (w.a * dt) * c.motion;
+      check_step_end(step, ids[i], end);
+    }
+  });
+  implicit_stats_.steps += 1;  // taken (a step that failed above is taken again or stops the run)
   // Besides its flow steps: the stiffness (membrane), the spreadings (spreading) and the
   // interpolations with the solve's own work (interpolation).
   const double outside_flow = seconds_since(t0) - flow_seconds;

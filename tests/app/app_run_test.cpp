@@ -507,7 +507,7 @@ TEST(AppStepControl, AStepWhoseImplicitSolveFailsIsTakenAgainShorter) {
       base + "--set time.tolerance=0.1 --set output.checkpoint=true --set output.checkpoint_interval=20 ";
   const auto r = capsflow(controlled + "--out " + (dir / "full").string(), dir);
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_THAT(r.err, ::testing::HasSubstr("the implicit solve did not converge at dt = "));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("was too long (the implicit coupling's solve stopped at "));
   const auto table = rows_of(dir / "full" / "diagnostics.csv");
   EXPECT_NEAR(std::stod(table.back()[1]), 0.1, 1e-12);
   std::size_t retaken = 0;
@@ -520,6 +520,39 @@ TEST(AppStepControl, AStepWhoseImplicitSolveFailsIsTakenAgainShorter) {
   EXPECT_EQ(fixed.status, 3);
   EXPECT_THAT(fixed.err, ::testing::HasSubstr("raise time.implicit_max_iterations or lower time.dt"));
   EXPECT_THAT(fixed.err, ::testing::HasSubstr("dt = 0.01 is long"));
+}
+
+// A step too long for the implicit step's linearisation or for BDF2's prediction of the
+// positions folds an element. The coarse quick relaxation with a first step of 4 (1500
+// times the explicit limit): that step would end with element 4 folded (the check before
+// the nodes move), the next step's prediction X + dt V_last at dt = 2 folds it too, and at
+// t = 4 the prediction reaches the side's kernel reach; each is taken again at half the
+// length, and the run ends at t = 8 (measured: 3 steps taken again in 13). With a fixed dt
+// the same folds stop the run (status 3) naming the keys.
+TEST(AppStepControl, AStepThatWouldFoldTheMembraneIsTakenAgainShorter) {
+  const fs::path dir = scratch("step_folds");
+  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
+                           "/relaxation_quick.toml --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                           "--set capsule[0].radius=0.6 --set time.t_end=8 --set output.vtu=false "
+                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"implicit\"' "
+                           "--set 'time.node_scheme=\"bdf2\"' ";
+  const auto r = capsflow(base + "--set time.dt=4 --set time.tolerance=0.1 --out " + (dir / "controlled").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("step 1, t = 0: dt = 4 was too long (capsule 0: element 4 would end the step "
+                                          "inverted or collapsed"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("step 2, t = 2: dt = 2 was too long (capsule 0: element 4 is inverted"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("3 step(s) taken again shorter"));
+  const auto table = rows_of(dir / "controlled" / "diagnostics.csv");
+  EXPECT_NEAR(std::stod(table.back()[1]), 8.0, 1e-12);
+  EXPECT_DOUBLE_EQ(std::stod(table[1][2]), 2.0);  // the first step, halved once
+  const auto end = capsflow(base + "--quiet --set time.dt=4 --out " + (dir / "fixed_end").string(), dir);
+  EXPECT_EQ(end.status, 3);
+  EXPECT_THAT(end.err, ::testing::HasSubstr("element 4 would end the step inverted or collapsed"));
+  EXPECT_THAT(end.err, ::testing::HasSubstr("dt = 4 is long for the implicit step"));
+  const auto predicted = capsflow(base + "--quiet --set time.dt=2 --out " + (dir / "fixed_prediction").string(), dir);
+  EXPECT_EQ(predicted.status, 3);
+  EXPECT_THAT(predicted.err, ::testing::HasSubstr("step 2 (t = 2): capsule 0: element 4 is inverted or collapsed"));
+  EXPECT_THAT(predicted.err, ::testing::HasSubstr("dt = 2 is long for BDF2's prediction of the positions"));
 }
 
 // The coarse quick relaxation to t = 0.02 with the step control at tolerance 0.1, a row per
