@@ -448,7 +448,13 @@ void CapsuleCoupling::interpolate_velocities(int step) {
   const auto t0 = Clock::now();
   for (int k = 0; k < num_capsules(); ++k)
     if (owns(k)) std::swap(capsule(k).previous_velocity, capsule(k).velocity);  // V^(n-1); velocity gets V^n
-  interpolate_into(step, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
+  if (end_velocity_ready_) {  // the implicit step's check interpolated this flow already
+    for (int k = 0; k < num_capsules(); ++k)
+      if (owns(k)) capsule(k).velocity = capsule(k).response;
+    end_velocity_ready_ = false;
+  } else {
+    interpolate_into(step, [](Capsule& c) -> Eigen::Matrix3Xd& { return c.velocity; });
+  }
   times_.interpolation += seconds_since(t0);
 }
 
@@ -601,6 +607,7 @@ void CapsuleCoupling::predict_midpoint(int step) {
 void CapsuleCoupling::forces() {
   const int step = static_cast<int>(steps_ + 1);
   stage_open_ = true;
+  end_velocity_ready_ = false;
   implicit_step_ = implicit_.enabled && num_capsules() > 0 && !(ns_.stable_dt() <= implicit_.explicit_below);
   if (distributed()) {
     distributed_forces(step);

@@ -505,6 +505,9 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   bool bdf2_last_ = false;      // the last step was (node_error)
   bool stage_open_ = false;     // from forces() to interpolation() (shorter_may_help)
   bool at_step_end_ = false;    // inside check_step_end
+  // correct() left J u of the step's last flow in each capsule's response: the interpolation
+  // stage takes it as V (the same bits) instead of interpolating again.
+  bool end_velocity_ready_ = false;
   ImplicitStats implicit_stats_;
   double implicit_seconds_ = 0.0;  // inside correct(), besides its flow steps (see motion)
 };

@@ -207,6 +207,7 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
       check_step_end(step, ids[i], end);
     }
   });
+  end_velocity_ready_ = true;   // in each capsule's response (interpolate_velocities)
   implicit_stats_.steps += 1;  // taken (a step that failed above is taken again or stops the run)
   // Besides its flow steps: the stiffness (membrane), the spreadings (spreading) and the
   // interpolations with the solve's own work (interpolation).
