@@ -25,10 +25,11 @@
 
 namespace capsflow::fluid {
 
-// Thrown by a body's correct() that could not solve at this step's length (an implicit
-// coupling's solve that did not converge in its products). TimeStep::run puts the flow back
-// at the step's start before passing it on, so the caller may take the step again, shorter;
-// nothing has moved yet.
+// Thrown by a body whose step a shorter one may mend: from correct() (an implicit coupling's
+// solve that did not converge in its products, or a step that would leave the membrane
+// folded), or from forces() or spreading() (positions predicted from the step's length).
+// TimeStep::run puts the flow back at the step's start before passing it on, so the caller
+// may take the step again, shorter; nothing has moved yet.
 class StepTooLong : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
