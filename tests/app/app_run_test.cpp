@@ -496,13 +496,17 @@ TEST(AppStepControl, HalvingTheToleranceHalvesTheError) {
 // the checkpoint). With a fixed dt the same failure stops the run (status 3) naming the
 // keys. Measured to t = 0.1: 6 steps taken again in 68, at steps 1, 19, 21, 25, 39 and 66
 // (65 in 72 without the ceiling).
+// The coarse quick relaxation to t_end with the implicit coupling and BDF2, a row per step.
+std::string implicit_bdf2_quick_relaxation(const std::string& t_end) {
+  return std::string("run ") + CAPSFLOW_CASES_DIR +
+         "/relaxation_quick.toml --set adapt.max_level=4 --set capsule[0].nodes=642 --set capsule[0].radius=0.6 "
+         "--set time.t_end=" + t_end + " --set output.vtu=false --set output.diagnostics_interval=1 "
+         "--set 'time.coupling=\"implicit\"' --set 'time.node_scheme=\"bdf2\"' ";
+}
+
 TEST(AppStepControl, AStepWhoseImplicitSolveFailsIsTakenAgainShorter) {
   const fs::path dir = scratch("step_rejected");
-  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
-                           "/relaxation_quick.toml --set adapt.max_level=4 --set capsule[0].nodes=642 "
-                           "--set capsule[0].radius=0.6 --set time.t_end=0.1 --set output.vtu=false "
-                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"implicit\"' "
-                           "--set 'time.node_scheme=\"bdf2\"' --set time.implicit_max_iterations=1 ";
+  const std::string base = implicit_bdf2_quick_relaxation("0.1") + "--set time.implicit_max_iterations=1 ";
   const std::string controlled =
       base + "--set time.tolerance=0.1 --set output.checkpoint=true --set output.checkpoint_interval=20 ";
   const auto r = capsflow(controlled + "--out " + (dir / "full").string(), dir);
@@ -531,11 +535,7 @@ TEST(AppStepControl, AStepWhoseImplicitSolveFailsIsTakenAgainShorter) {
 // the same folds stop the run (status 3) naming the keys.
 TEST(AppStepControl, AStepThatWouldFoldTheMembraneIsTakenAgainShorter) {
   const fs::path dir = scratch("step_folds");
-  const std::string base = std::string("run ") + CAPSFLOW_CASES_DIR +
-                           "/relaxation_quick.toml --set adapt.max_level=4 --set capsule[0].nodes=642 "
-                           "--set capsule[0].radius=0.6 --set time.t_end=8 --set output.vtu=false "
-                           "--set output.diagnostics_interval=1 --set 'time.coupling=\"implicit\"' "
-                           "--set 'time.node_scheme=\"bdf2\"' ";
+  const std::string base = implicit_bdf2_quick_relaxation("8");
   const auto r = capsflow(base + "--set time.dt=4 --set time.tolerance=0.1 --out " + (dir / "controlled").string(), dir);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_THAT(r.err, ::testing::HasSubstr("step 1, t = 0: dt = 4 was too long (capsule 0: element 4 would end the step "
