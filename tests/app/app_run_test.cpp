@@ -490,12 +490,6 @@ TEST(AppStepControl, HalvingTheToleranceHalvesTheError) {
   EXPECT_GT(steps[3], steps[0]);
 }
 
-// A step the implicit solve cannot take (one product allowed) is taken again at half the
-// length, and the ceiling after it keeps such failures rare; a restart from a checkpoint
-// after one (step 20) takes the same steps, its later failures included (the ceiling is in
-// the checkpoint). With a fixed dt the same failure stops the run (status 3) naming the
-// keys. Measured to t = 0.1: 6 steps taken again in 68, at steps 1, 19, 21, 25, 39 and 66
-// (65 in 72 without the ceiling).
 // The coarse quick relaxation to t_end with the implicit coupling and BDF2, a row per step.
 std::string implicit_bdf2_quick_relaxation(const std::string& t_end) {
   return std::string("run ") + CAPSFLOW_CASES_DIR +
@@ -504,6 +498,12 @@ std::string implicit_bdf2_quick_relaxation(const std::string& t_end) {
          "--set 'time.coupling=\"implicit\"' --set 'time.node_scheme=\"bdf2\"' ";
 }
 
+// A step the implicit solve cannot take (one product allowed) is taken again at half the
+// length, and the ceiling after it keeps such failures rare; a restart from a checkpoint
+// after one (step 20) takes the same steps, its later failures included (the ceiling is in
+// the checkpoint). With a fixed dt the same failure stops the run (status 3) naming the
+// keys. Measured to t = 0.1: 6 steps taken again in 68, at steps 1, 19, 21, 25, 39 and 66
+// (65 in 72 without the ceiling).
 TEST(AppStepControl, AStepWhoseImplicitSolveFailsIsTakenAgainShorter) {
   const fs::path dir = scratch("step_rejected");
   const std::string base = implicit_bdf2_quick_relaxation("0.1") + "--set time.implicit_max_iterations=1 ";
