@@ -159,12 +159,11 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
       implicit_.enabled ? fmt::format("the implicit coupling is stable at dt = {:.3g}", dt)
                         : fmt::format("dt = {:.3g} is below the measured stability limit {:.3g}", dt, limit);
   std::string likely;
-  const bool predicted = stage_open_ && !at_step_end_ && scheme_ == NodeScheme::bdf2 && bdf2_step_;
   if (at_step_end_ && cause != Cause::wall)
     likely = fmt::format("dt = {:.3g} is long for the implicit step, which takes the membrane force linearised about "
                          "the step's predicted positions: lower time.dt, or set time.tolerance to choose the step",
                          dt);
-  else if (predicted && cause == Cause::instability)
+  else if (at_prediction() && cause == Cause::instability)
     likely = fmt::format("dt = {:.3g} is long for BDF2's prediction of the positions, X + dt V_last, where the step "
                          "takes the forces: lower time.dt, or set time.tolerance to choose the step",
                          dt);
@@ -197,7 +196,7 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
 
 bool CapsuleCoupling::shorter_may_help(Cause cause) const {
   if (!stage_open_) return false;  // the nodes have moved: the step cannot be taken again
-  return cause == Cause::implicit_solve || at_step_end_ || (scheme_ == NodeScheme::bdf2 && bdf2_step_);
+  return cause == Cause::implicit_solve || at_step_end_ || at_prediction();
 }
 
 void CapsuleCoupling::fail_stencil(int step, int k, const StencilError& e) const {
@@ -474,7 +473,7 @@ void CapsuleCoupling::advance_nodes(int step, double dt, double previous_dt) {
     if (scheme_ == NodeScheme::midpoint) {
       m = 0.5 * (c.start_velocity + c.velocity);
     } else if (bdf2_step_) {
-      m = bdf2.a * c.motion + bdf2.b * c.velocity;
+      m = step_motion(c, bdf2, c.velocity);
     } else if (scheme_ == NodeScheme::ab2 && previous_dt > 0.0 && c.previous_velocity.cols() == c.x.cols()) {
       const double r = dt / previous_dt;
       m = (1.0 + 0.5 * r) * c.velocity - (0.5 * r) * c.previous_velocity;

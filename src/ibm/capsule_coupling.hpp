@@ -391,6 +391,12 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
     double a = 0.0, b = 1.0;
   };
   [[nodiscard]] Bdf2Weights bdf2_weights(double dt, double dt_last) const;
+  // The node velocity of an Euler or BDF2 step whose interpolated velocity is v:
+  // X(t + dt) = X + dt (a V_last + b v) (advance_nodes, and the implicit step's end check).
+  [[nodiscard]] Eigen::Matrix3Xd step_motion(const Capsule& c, const Bdf2Weights& w, const Eigen::Matrix3Xd& v) const {
+    if (!bdf2_step_) return v;
+    return w.a * c.motion + w.b * v;
+  }
   void place_bdf2_predictions();
   // What a failure's message names as its likely cause: the explicit coupling's instability
   // (when dt is above the measured limit; else a wall or a fold), a node out of the refined
@@ -407,6 +413,11 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // failure at positions the step's length sets: BDF2's extrapolated X* = X + dt V_last,
   // the implicit step's end (check_step_end), or the implicit solve itself.
   [[nodiscard]] bool shorter_may_help(Cause cause) const;
+  // Between the forces and the interpolation, before the end check: the stages work at
+  // BDF2's prediction X* = X + dt V_last.
+  [[nodiscard]] bool at_prediction() const {
+    return stage_open_ && !at_step_end_ && scheme_ == NodeScheme::bdf2 && bdf2_step_;
+  }
   // Where the implicit step will leave capsule k's nodes, before they move: an element
   // folded or a node on an embedded wall there fails (shorter_may_help), where the step
   // would otherwise end folded and stop the next one.

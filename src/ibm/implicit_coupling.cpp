@@ -202,9 +202,7 @@ void CapsuleCoupling::correct(const std::function<fluid::StepStats()>& rerun) {
   collectively([&] {
     for (std::size_t i = 0; i < ids.size(); ++i) {
       const Capsule& c = capsule(ids[i]);
-      Eigen::Matrix3Xd end = c.x + (w.b * dt) * cblock(end_velocity, i);
-      if (bdf2_step_) end += (w.a * dt) * c.motion;
-      check_step_end(step, ids[i], end);
+      check_step_end(step, ids[i], c.x + dt * step_motion(c, w, cblock(end_velocity, i)));
     }
   });
   end_velocity_ready_ = true;   // in each capsule's response (interpolate_velocities)
