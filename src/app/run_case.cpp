@@ -105,10 +105,16 @@ fluid::AdaptationOptions adaptation_options(const io::AdaptConfig& a) {
           .min_level = a.min_level, .wall_level = a.wall_level};
 }
 
-// A capsule failure's own part, "capsule coupling: step N (t = ...): <what>. Likely cause:
-// ...", for the line that says the step is taken again (the advice is for a run that stops).
+// A capsule failure ("capsule coupling: step N (t = ...): <what>. Likely cause: ...") without
+// its advice, where the run gives its own.
+std::string failure_with_place(const std::string& message) {
+  return message.substr(0, message.find(". Likely cause:"));
+}
+
+// Its own part, <what>, for the line that says the step is taken again (the advice is for a
+// run that stops).
 std::string failure_without_advice(const std::string& message) {
-  std::string what = message.substr(0, message.find(". Likely cause:"));
+  std::string what = failure_with_place(message);
   if (const auto colon = what.find("): "); colon != std::string::npos) what.erase(0, colon + 3);
   return what;
 }
@@ -272,9 +278,19 @@ class FlowRun {
         // fail): the flow is back at the step's start and nothing has moved, so it is taken
         // again at half the length (a few times; with a fixed dt the run stops, the message
         // naming the keys).
+        const double tried = ns_.stable_dt();
+        // At or below the explicit coupling's limit a step's length is not what folds an
+        // element or reaches a wall there: the membrane itself does (halving again would
+        // only creep towards it), so the run stops.
+        const bool short_already = e.at_positions() && capsules_ && tried <= capsules_->coupling().stability_limit();
+        if (short_already && control_.enabled())
+          throw RunFailure(fmt::format(
+              "{}. Likely cause: the step was taken again down to dt = {:.3g}, within the explicit coupling's limit "
+              "{:.3g}, where its length is not what carries the membrane there: the membrane reaches it by itself "
+              "(a wall: contact forces are not modelled yet). Output up to the last snapshot is kept in {}",
+              failure_with_place(e.what()), tried, capsules_->coupling().stability_limit(), out_.string()));
         if (!control_.enabled() || rejected_in_a_row_ >= kMostRejections)
           throw RunFailure(fmt::format("{} Output up to the last snapshot is kept in {}", e.what(), out_.string()));
-        const double tried = ns_.stable_dt();
         control_.reject(tried);
         ++rejected_in_a_row_;
         ++rejected_;

@@ -32,7 +32,15 @@ namespace capsflow::fluid {
 // may take the step again, shorter; nothing has moved yet.
 class StepTooLong : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  // at_positions: the step's positions failed (a fold, a wall), not its solve. A membrane
+  // can reach those by itself, which no shorter step mends: the caller stops halving at some
+  // length (app/run_case.cpp: the explicit coupling's limit).
+  explicit StepTooLong(const std::string& what, bool at_positions = false)
+      : std::runtime_error(what), at_positions_(at_positions) {}
+  [[nodiscard]] bool at_positions() const { return at_positions_; }
+
+ private:
+  bool at_positions_;
 };
 
 class StepBody {

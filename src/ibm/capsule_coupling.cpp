@@ -55,6 +55,35 @@ bool face_stencils_exist(const tree::Tree<3>& t, const KernelChoice& kc, const d
   return exist;
 }
 
+// The non-periodic side (2 d + hi) that one of the stencils of the node at x crosses, or -1:
+// the stages fail on such a stencil (a cell outside the domain, throw_missing_cell).
+int side_crossed(const tree::TreeOptions<3>& o, int level, double h, const KernelChoice& kc, const double* x) {
+  int side = -1;
+  const auto crosses = [&](const tree::Coords<3>& first, const std::array<int, 3>& n) {
+    for (int d = 0; side < 0 && d < 3; ++d) {
+      const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << level;
+      if (o.periodic[d]) continue;
+      if (first[d] < 0) side = 2 * d;
+      else if (first[d] + n[d] > cells) side = 2 * d + 1;
+    }
+  };
+  for (const KernelKind kind : {kc.spread, kc.interpolate}) {
+    if (kc.staggered)
+      with_face_kernel(kind, kc.divergence_free, [&]<Kernel K>(K) {
+        for (int axis = 0; axis < 3; ++axis) {
+          const BoxStencil st = face_stencil_bounds<K>(o, h, x, axis);
+          crosses(st.first, st.n);
+        }
+      });
+    else
+      with_kernel(kind, [&]<Kernel K>(K) {
+        const auto st = node_stencil<K>(o, h, x);
+        crosses({st[0].first, st[1].first, st[2].first}, {K::kSupport, K::kSupport, K::kSupport});
+      });
+  }
+  return side;
+}
+
 // The cell-centred coupling's stencils (one rank only).
 bool cell_stencils_exist(const tree::Tree<3>& t, KernelKind kind, const Eigen::Matrix3Xd& x) {
   return with_kernel(kind, [&]<Kernel K>(K) {
@@ -159,7 +188,12 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
       implicit_.enabled ? fmt::format("the implicit coupling is stable at dt = {:.3g}", dt)
                         : fmt::format("dt = {:.3g} is below the measured stability limit {:.3g}", dt, limit);
   std::string likely;
-  if (at_step_end_ && cause != Cause::wall)
+  if (at_step_end_ && cause == Cause::wall)
+    likely = fmt::format("at dt = {:.3g} the step would carry the membrane there: lower time.dt, or set "
+                         "time.tolerance to choose the step; a membrane that reaches the wall at any step touches "
+                         "it, and contact forces are not modelled yet",
+                         dt);
+  else if (at_step_end_)
     likely = fmt::format("dt = {:.3g} is long for the implicit step, which takes the membrane force linearised about "
                          "the step's predicted positions: lower time.dt, or set time.tolerance to choose the step",
                          dt);
@@ -190,7 +224,8 @@ void CapsuleCoupling::fail(int step, const std::string& what, Cause cause) const
       break;
   }
   // A shorter step may succeed: the caller decides (fluid::TimeStep restores the flow).
-  if (shorter_may_help(cause)) throw fluid::StepTooLong(fmt::format("{}. Likely cause: {}.", where, likely));
+  if (shorter_may_help(cause))
+    throw fluid::StepTooLong(fmt::format("{}. Likely cause: {}.", where, likely), cause != Cause::implicit_solve);
   throw std::runtime_error(fmt::format("{}. Likely cause: {}.", where, likely));
 }
 
@@ -244,6 +279,23 @@ void CapsuleCoupling::check_embedded_walls(int step, int k, const Eigen::Matrix3
            fmt::format("capsule {}: node {} at ({:.6g}, {:.6g}, {:.6g}) touched an embedded wall (its distance {:.4g}, "
                        "within a quarter cell {:.4g}; contact forces are not modelled yet)",
                        k, n, at(0, n), at(1, n), at(2, n), distance, contact),
+           Cause::wall);
+  }
+}
+
+void CapsuleCoupling::check_brick_sides(int step, int k, const Eigen::Matrix3Xd& at) const {
+  const tree::Tree<3>& t = ns_.tree();
+  const auto& o = t.options();
+  if (std::all_of(o.periodic.begin(), o.periodic.end(), [](bool p) { return p; })) return;
+  const int level = t.max_level();
+  const double h = t.cell_size(level);
+  for (Eigen::Index n = 0; n < at.cols(); ++n) {
+    const int side = side_crossed(o, level, h, kernels_[static_cast<std::size_t>(k)], &at(0, n));
+    if (side >= 0)
+      fail(step,
+           fmt::format("capsule {}: node {} would end the step at ({:.6g}, {:.6g}, {:.6g}), within the "
+                       "immersed-boundary kernel's reach of side {}",
+                       k, n, at(0, n), at(1, n), at(2, n), fluid::side_name(side)),
            Cause::wall);
   }
 }

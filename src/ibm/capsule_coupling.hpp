@@ -419,14 +419,17 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
     return stage_open_ && !at_step_end_ && scheme_ == NodeScheme::bdf2 && bdf2_step_;
   }
   // Where the implicit step will leave capsule k's nodes, before they move: an element
-  // folded or a node on an embedded wall there fails (shorter_may_help), where the step
-  // would otherwise end folded and stop the next one.
+  // folded, a node on an embedded wall or within the kernels' reach of the domain's side
+  // there fails (shorter_may_help), where the step would otherwise stop the next one.
   void check_step_end(int step, int k, const Eigen::Matrix3Xd& end);
   [[noreturn]] void fail_stencil(int step, int k, const StencilError& e) const;
   [[nodiscard]] Capsule* owned(int i) const;
   // Embedded walls: fails (Cause::wall) when a node at `at` of capsule k touches one (comes
   // within embedded_wall_contact(); nothing without solids).
   void check_embedded_walls(int step, int k, const Eigen::Matrix3Xd& at) const;
+  // Fails (Cause::wall) when a stencil of a node at `at` of capsule k would cross a
+  // non-periodic side of the domain, where the next step's stages would fail.
+  void check_brick_sides(int step, int k, const Eigen::Matrix3Xd& at) const;
   // Fails (Cause::wall) when a node of box set i (capsule k; node_of names its node in the
   // capsule) has no open face in its stencils: it is inside a solid.
   void require_open_faces(int step, int k, std::size_t i,

@@ -59,12 +59,13 @@ void CapsuleCoupling::collectively(const std::function<void()>& f) const {
   }
   // all_or_none throws std::runtime_error on every rank; a failure that a shorter step may
   // mend (fluid::StepTooLong, see fail) stays one if it was that on every rank that failed.
-  bool failed_for_good = false;
+  bool failed_for_good = false, at_positions = false;
   try {
     parallel::all_or_none(forest_->comm(), [&] {
       try {
         f();
-      } catch (const fluid::StepTooLong&) {
+      } catch (const fluid::StepTooLong& e) {
+        at_positions = e.at_positions();
         throw;
       } catch (...) {
         failed_for_good = true;
@@ -73,7 +74,7 @@ void CapsuleCoupling::collectively(const std::function<void()>& f) const {
     });
   } catch (const std::runtime_error& e) {
     if (any_rank(failed_for_good)) throw;
-    throw fluid::StepTooLong(e.what());
+    throw fluid::StepTooLong(e.what(), any_rank(at_positions));
   }
 }
 

@@ -61,6 +61,7 @@ void CapsuleCoupling::check_step_end(int step, int k, const Eigen::Matrix3Xd& en
     AtEnd& operator=(const AtEnd&) = delete;
   } at_end(at_step_end_);
   check_embedded_walls(step, k, end);
+  check_brick_sides(step, k, end);
   try {
     (void)capsule(k).model.energy(end);
   } catch (const membrane::ElementError& e) {

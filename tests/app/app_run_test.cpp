@@ -555,6 +555,34 @@ TEST(AppStepControl, AStepThatWouldFoldTheMembraneIsTakenAgainShorter) {
   EXPECT_THAT(predicted.err, ::testing::HasSubstr("dt = 2 is long for BDF2's prediction of the positions"));
 }
 
+// The capsule relaxing off the channel's axis (centre y = 0.15, the sphere's top would be at
+// 0.75) reaches the brick's side y = 1 within its kernels' reach (y > 0.6875 at dx = 1/8).
+// With Euler's nodes (forces at X: no prediction to catch it) a long implicit step that
+// would end there is taken again shorter (step 14, t = 0.9: 0.266 went through at 0.133);
+// once the membrane creeps to the reach by itself, the halved steps fall to the explicit
+// coupling's limit (2.6e-3 here) and the run stops there, naming the cause, instead of
+// halving towards the wall for ever (measured: t = 1.074 at step 19).
+TEST(AppStepControl, AMembraneThatReachesTheSideByItselfStopsOnceTheStepIsShort) {
+  const fs::path dir = scratch("step_reaches_side");
+  const auto r = capsflow(std::string("run ") + CAPSFLOW_CASES_DIR +
+                              "/relaxation_quick.toml --set adapt.max_level=4 --set capsule[0].nodes=642 "
+                              "--set capsule[0].radius=0.6 --set capsule[0].centre=[0.0,0.15,0.0] --set time.t_end=2 "
+                              "--set output.vtu=false --set output.diagnostics_interval=1 "
+                              "--set 'time.coupling=\"implicit\"' --set 'time.node_scheme=\"euler\"' "
+                              "--set time.dt=0.1 --set time.tolerance=0.1 --out " + (dir / "run").string(),
+                          dir);
+  EXPECT_EQ(r.status, 3) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("would end the step at"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("within the immersed-boundary kernel's reach of side y_hi); taken again at"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("Likely cause: the step was taken again down to dt = "));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("the membrane reaches it by itself"));
+  const auto table = rows_of(dir / "run" / "diagnostics.csv");
+  const double t_last = std::stod(table.back()[1]);
+  EXPECT_GT(t_last, 1.0);  // past the first retry, which went through
+  EXPECT_LT(t_last, 1.1);
+  EXPECT_GT(std::stod(table.back()[2]), 1e-3);  // no step crept below the limit's order
+}
+
 // The coarse quick relaxation to t = 0.02 with the step control at tolerance 0.1, a row per
 // step and a checkpoint every `interval` steps; `scheme`: the time.* keys of the coupling.
 std::string controlled_quick_relaxation(const std::string& scheme, int interval) {
