@@ -19,6 +19,7 @@
 #include <functional>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "fluid/navier_stokes.hpp"
