@@ -172,7 +172,7 @@ def main():
         return 2
     check = check_relaxation if args.mode == "relaxation" else check_shear
     worst = check(args, lambdas, args.set)
-    # The defaults hold what dx = a/8 gives with margin (docs/numerics.md: at most 12% on the
+    # The defaults hold what dx = a/8 gives with margin (docs/numerics.md: at most 9% on the
     # rates, 16% on the inclination's lag): they catch a regression, not the method's error.
     tolerance = args.tolerance if args.tolerance is not None else (0.15 if args.mode == "relaxation" else 0.2)
     print(f"largest relative error {worst:.3f} (tolerance {tolerance:g})")
