@@ -289,6 +289,14 @@ void CapsuleCoupling::check_brick_sides(int step, int k, const Eigen::Matrix3Xd&
   if (std::all_of(o.periodic.begin(), o.periodic.end(), [](bool p) { return p; })) return;
   const int level = t.max_level();
   const double h = t.cell_size(level);
+  // One box for a membrane far from every side: no stencil reaches beyond wall_reach.
+  const double reach = wall_reach(kernels_[static_cast<std::size_t>(k)], h);
+  const Eigen::Vector3d lo = at.rowwise().minCoeff(), hi = at.rowwise().maxCoeff();
+  bool clear = true;
+  for (int d = 0; d < 3; ++d)
+    clear = clear && (o.periodic[d] || (lo[d] - reach > o.origin[d] &&
+                                        hi[d] + reach < o.origin[d] + o.roots[d] * o.root_size));
+  if (clear) return;
   for (Eigen::Index n = 0; n < at.cols(); ++n) {
     const int side = side_crossed(o, level, h, kernels_[static_cast<std::size_t>(k)], &at(0, n));
     if (side >= 0)
