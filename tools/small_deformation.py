@@ -130,7 +130,9 @@ def check_shear(args, lambdas, sets):
     for lam in lambdas:
         out, c = run_lambda(args, lam, sets)
         ca = float(written_capsule(out)["Ca"])
-        late = c["t"] >= c["t"][-1] - 1.0  # the last unit of strain: steady
+        # The last 1.5 units of strain: steady (the case runs past its slowest mode's settling),
+        # and long enough to average the inclination's wobble as the membrane turns.
+        late = c["t"] >= c["t"][-1] - 1.5
         d, theta, omega = (float(np.mean(c[k][late])) for k in ("D12", "inclination", "omega_z"))
         slope_run = (0.25 - theta) * math.pi / ca
         e_d = d / ca / shear_deformation_slope() - 1.0
@@ -173,7 +175,7 @@ def main():
     check = check_relaxation if args.mode == "relaxation" else check_shear
     worst = check(args, lambdas, args.set)
     # The defaults hold what dx = a/8 gives with margin (docs/numerics.md: at most 9% on the
-    # rates, 16% on the inclination's lag): they catch a regression, not the method's error.
+    # rates, 17.5% on the inclination's lag): they catch a regression, not the method's error.
     tolerance = args.tolerance if args.tolerance is not None else (0.15 if args.mode == "relaxation" else 0.2)
     print(f"largest relative error {worst:.3f} (tolerance {tolerance:g})")
     return 0 if worst <= tolerance else 1
