@@ -12,7 +12,7 @@ packages=(
   libvtk9-dev
   libtomlplusplus-dev libcli11-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3-numpy python3-matplotlib
+  python3-numpy python3-matplotlib python3-sympy
 )
 
 installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }

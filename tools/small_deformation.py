@@ -6,7 +6,8 @@ Usage:
   small_deformation.py relaxation CAPSFLOW CASE OUT [--lambdas 0.2,1,5] [--tolerance 0.12] [--set k=v ...]
   small_deformation.py shear CAPSFLOW CASE OUT [--lambdas 0.2,1,5] [--tolerance 0.1] [--set k=v ...]
 
-The theory (derived in docs/numerics.md, "Small-deformation theory"): a spherical capsule of
+The theory (docs/numerics.md, "Small-deformation theory"; tools/small_deformation_derivation.py
+derives every closed form below again with sympy): a spherical capsule of
 radius a, membrane shear modulus G and area modulus K = kappa G (kappa = 3 for the neo-Hookean
 and the Skalak C = 1 laws), outer viscosity mu, inner viscosity lambda mu, Stokes flow.
 
