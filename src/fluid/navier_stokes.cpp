@@ -85,11 +85,19 @@ double NavierStokes<D>::extrapolate_start(double dt) {
   const bool history = history_dt_ > 0.0;
   const double w = history ? dt / history_dt_ : 0.0;
   const double c = w * w / (1.0 + 2.0 * w);
+  // The transpose stress is explicit: at u^n + w (u^n - u^(n-1)), the extrapolation to
+  // t^(n+1) where the step's implicit terms are, it keeps the step second order (at u^n
+  // or u^ it is first order: TimeOrder.ImplicitBdf2WithAnInnerFluid).
+  const bool extrapolate_transpose = properties_ && history;
   for (int d = 0; d < D; ++d) {
     const std::span<double> u = tree_.values(u_[d]);
     const std::span<double> prev = tree_.values(u_prev_[d]);
+    std::vector<double>& next = transpose_velocity_[d];
+    if (extrapolate_transpose) next.assign(u.size(), 0.0);
+    else next.clear();
     tree_.for_each_owned_leaf([&](Index i) {
       const double now = u[i];
+      if (extrapolate_transpose) next[i] = now + w * (now - prev[i]);
       if (history) u[i] = now + c * (now - prev[i]);
       prev[i] = now;
     });
@@ -223,7 +231,14 @@ StepStats NavierStokes<D>::step() {
       start_velocity_[d].assign(u.begin(), u.end());
     }
   }
+  if (!transpose_velocity_[0].empty()) {  // extrapolated to t^(n+1): the walls then
+    boundary_time_ = time_ + dt;
+    for (int d = 0; d < D; ++d)
+      tree_.sync(transpose_velocity_[d], conditions_.velocity[d], tree::Prolongation::quadratic);
+    boundary_time_ = time_;
+  }
   if (properties_) update_properties();
+  for (auto& v : transpose_velocity_) v.clear();  // this step's: an adapt may follow
   if (!options_.stokes) prediction_and_advection(h, stats);
   boundary_time_ = time_ + dt;
   if (options_.current_force_in_viscous && face_force_) {

@@ -360,7 +360,8 @@ class NavierStokes {
   tree::FieldId dp_ = -1;                  // FlowOptions::bdf2: the projection's pressure increment
   double history_dt_ = 0.0;                // history_dt()
   // FlowOptions::bdf2: u <- u^ and u.prev <- u^n on the owned leaves; returns b dt (dt
-  // without a history).
+  // without a history). With flow properties and a history it also fills
+  // transpose_velocity_.
   double extrapolate_start(double dt);
   tree::FieldId p_ = 0, pf_ = 0;
   FaceField<D> uf_, force_, scratch_faces_;
@@ -383,6 +384,9 @@ class NavierStokes {
   std::vector<double> alpha_faces_, mu_faces_;  // 1/rho and mu, 2D per cell slot
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
+  // FlowOptions::bdf2 with a history: u^n + w (u^n - u^(n-1)), the velocity the explicit
+  // transpose stress takes (extrapolate_start fills it, on owned leaves; empty otherwise).
+  std::array<std::vector<double>, D> transpose_velocity_;
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   double nu_max_ = 1.0;                         // the largest mu / rho: the shortest viscous times
   bool uniform_density_ = false;                // variable viscosity only

@@ -45,12 +45,21 @@ inline std::array<double, 3> errors(const OrderRun& o, double dt0, const char* l
 // The implicit coupling's dt ladder without a reference: `run` at each dt of `dts` (halving)
 // to t_end with the node `scheme` and the solve's `tolerance`; the max-norm differences of
 // the final nodes between successive dt, printed with their orders under `label`.
+// With viscosity_ratio != 1 the capsule holds an inner fluid that much more viscous.
 inline std::vector<double> implicit_ladder(test::SeedRun run, NodeScheme scheme, double tolerance,
-                                           std::initializer_list<double> dts, double t_end, const char* label) {
+                                           std::initializer_list<double> dts, double t_end, const char* label,
+                                           double viscosity_ratio = 1.0) {
   std::vector<Eigen::Matrix3Xd> x;
   for (const double dt : dts) {
     run.dt = dt;
     auto s = test::seed_setup(run);
+    if (viscosity_ratio != 1.0) {
+      CapsuleCoupling& cc = *s.coupling;
+      cc.set_inner_fluid(0, {.viscosity_ratio = viscosity_ratio});
+      s.ns->set_properties([&cc, mu = 1.0 / run.Re](const tree::Tree<3>&, std::span<double> rho, std::span<double> m) {
+        cc.inner_properties(1.0, mu, rho, m);
+      });
+    }
     s.coupling->set_node_scheme(scheme);
     s.coupling->set_implicit({.enabled = true, .tolerance = tolerance, .max_iterations = 60});
     const int steps = static_cast<int>(std::lround(t_end / dt));
