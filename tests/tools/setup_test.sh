@@ -21,7 +21,7 @@ chmod +x "$fake"/*
 export PATH="$fake:$PATH" FAKE_LOG="$fake/log"
 all="build-essential cmake ninja-build pkg-config libeigen3-dev libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
 hdf5-tools libtomlplusplus-dev libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev python3-numpy
-python3-matplotlib"
+python3-matplotlib python3-sympy"
 fail() { echo "FAIL: $*"; exit 1; }
 
 # ParaView's Python package installed, libvtk9-dev missing: the known conflict, named.
