@@ -56,7 +56,8 @@ inline std::vector<double> implicit_ladder(test::SeedRun run, NodeScheme scheme,
     if (viscosity_ratio != 1.0) {
       CapsuleCoupling& cc = *s.coupling;
       cc.set_inner_fluid(0, {.viscosity_ratio = viscosity_ratio});
-      s.ns->set_properties([&cc, mu = 1.0 / run.Re](const tree::Tree<3>&, std::span<double> rho, std::span<double> m) {
+      const double mu = 1.0 / run.Re;
+      s.ns->set_properties([&cc, mu](const tree::Tree<3>&, std::span<double> rho, std::span<double> m) {
         cc.inner_properties(1.0, mu, rho, m);
       });
     }

@@ -23,6 +23,18 @@ TEST(TimeOrder, MidpointWithCarriedFacesIsSecondOrder) {
   EXPECT_LT(e[2], 1e-5);
 }
 
+// The ellipsoid of the BDF2 ladders below: a uniform grid, the solves to 1e-10.
+test::SeedRun bdf2_ladder() {
+  return {.max_level = 4,
+          .min_level = 4,
+          .mesh_level = 3,
+          .tolerance = 1e-10,
+          .adapt = {.enabled = false},
+          .kernels = {.spread = KernelKind::cosine, .interpolate = KernelKind::cosine},
+          .current_force_in_viscous = true,
+          .bdf2 = true};
+}
+
 // The implicit coupling with BDF2 nodes and flow (NodeScheme::bdf2, FlowOptions::bdf2):
 // the same ellipsoid to t = 0.016 at dt = 2e-3 (0.8 times the explicit limit) to 2.5e-4; the
 // max-norm node differences between successive dt fall four-fold. Measured: 3.43e-4,
@@ -31,15 +43,8 @@ TEST(TimeOrder, MidpointWithCarriedFacesIsSecondOrder) {
 // the default faces (N_inf 5.9e-4, 2.2e-4, 9.1e-5, 4.2e-5: dt (I - A C) of the force stays in them)
 // and with carried faces before the first step's faces went into the history.
 TEST(TimeOrder, ImplicitBdf2IsSecondOrder) {
-  const auto d = test::implicit_ladder({.max_level = 4,
-                                        .min_level = 4,
-                                        .mesh_level = 3,
-                                        .tolerance = 1e-10,
-                                        .adapt = {.enabled = false},
-                                        .kernels = {.spread = KernelKind::cosine, .interpolate = KernelKind::cosine},
-                                        .current_force_in_viscous = true,
-                                        .bdf2 = true},
-                                       NodeScheme::bdf2, 1e-6, {2e-3, 1e-3, 5e-4, 2.5e-4}, 0.016, "BDF2");
+  const auto d =
+      test::implicit_ladder(bdf2_ladder(), NodeScheme::bdf2, 1e-6, {2e-3, 1e-3, 5e-4, 2.5e-4}, 0.016, "BDF2");
   EXPECT_GT(std::log2(d[0] / d[1]), 1.8);
   EXPECT_GT(std::log2(d[1] / d[2]), 1.8);
   EXPECT_LT(d[2], 3e-5);
@@ -51,15 +56,8 @@ TEST(TimeOrder, ImplicitBdf2IsSecondOrder) {
 // step's extrapolated start u^, as before, 4.42e-4, 1.25e-4, 3.80e-5 (1.82, 1.72: first
 // order underneath).
 TEST(TimeOrder, ImplicitBdf2WithAnInnerFluid) {
-  const auto d = test::implicit_ladder({.max_level = 4,
-                                        .min_level = 4,
-                                        .mesh_level = 3,
-                                        .tolerance = 1e-10,
-                                        .adapt = {.enabled = false},
-                                        .kernels = {.spread = KernelKind::cosine, .interpolate = KernelKind::cosine},
-                                        .current_force_in_viscous = true,
-                                        .bdf2 = true},
-                                       NodeScheme::bdf2, 1e-6, {2e-3, 1e-3, 5e-4, 2.5e-4}, 0.016, "BDF2, lambda 5", 5.0);
+  const auto d = test::implicit_ladder(bdf2_ladder(), NodeScheme::bdf2, 1e-6, {2e-3, 1e-3, 5e-4, 2.5e-4},
+                                       0.016, "BDF2, lambda 5", 5.0);
   EXPECT_GT(std::log2(d[0] / d[1]), 1.9);
   EXPECT_GT(std::log2(d[1] / d[2]), 1.9);
   EXPECT_LT(d[2], 3e-5);
