@@ -13,24 +13,25 @@ surface moves with the fluid: d e_r/dt and d e_t/dt are the coefficients of P2 a
 in u_r and u_theta, for the shape r = 1 + e_r P2 and the tangential displacement
 e_t dP2/dtheta. That gives d(e_r, e_t)/dt = M (e_r, e_t) + s g.
 
-Checks, each independent of the closed form it tests:
-- the drop: a surface tension in place of the membrane gives Taylor's relaxation rate
+It asserts that M, D12 and the inclination's lag come out as the closed forms of
+small_deformation.py (relaxation_matrix, shear_deformation_slope, shear_inclination_slope),
+for symbolic lambda and kappa. The lag: in the frame turning with the membrane (gamma / 2)
+the strain turns at gamma, a frequency of Ca in units of G / (mu a); the l = 2 response's
+phase lag is Ca [M^-2 g]_r / [-M^-1 g]_r to first order, the inclination's lag half of it.
+
+Checks independent of those closed forms:
+- the fluid algebra: a surface tension in place of the membrane gives Taylor's drop rate
   40 (lambda + 1) / ((2 lambda + 3)(19 lambda + 16)) (Taylor 1932; Rallison 1984);
-- M against small_deformation.relaxation_matrix;
-- the steady deformation in shear, -[M^-1 g]_r / 2 in units of Ca, against Barthes-Biesel's
-  (1980) first-order D12 = 5 (3 kappa + 1) / (8 kappa) Ca, for every lambda;
-- the inclination's lag: in the frame turning with the membrane (gamma / 2) the strain turns
-  at gamma, Ca in units of G / (mu a); the l = 2 response's phase lag is
-  Ca [M^-2 g]_r / -[M^-1 g]_r to first order, the inclination's lag half of it. The same
-  argument with the drop's scalar rate gives Chaffey & Brenner's (1967) lag
-  (19 lambda + 16)(2 lambda + 3) / (80 (lambda + 1)) Ca_sigma, checked here too.
+- the frame argument: with the drop's single rate it gives Chaffey & Brenner's (1967) lag
+  (19 lambda + 16)(2 lambda + 3) / (80 (lambda + 1)) Ca_sigma;
+- the drive g: -[M^-1 g]_r / 2 is Barthes-Biesel's (1980) first-order D12 / Ca,
+  5 (3 kappa + 1) / (8 kappa), for every lambda.
 """
 import sys
 
 import sympy as sp
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import small_deformation  # noqa: E402
+import small_deformation  # beside this script, on sys.path as its directory
 
 x, y, z = sp.symbols("x y z", real=True)
 lam, kappa, s, e_r, e_t, sigma = sp.symbols("lambda kappa s e_r e_t sigma", positive=True)
@@ -118,7 +119,8 @@ def main():
             print(f"  expected {sp.factor(expected)}")
             failures.append(name)
 
-    # The drop: a tension sigma loads the fluid with -sigma 2H n, 2H = 2 + 4 e_r P2 for l = 2.
+    # The drop: a tension sigma in place of tau, div_s (sigma P) = -sigma 2H n with
+    # 2H = 2 + 4 e_r P2 for l = 2 (the constant part only shifts the pressure).
     u_drop, _ = surface_velocity(-4 * sigma * e_r, 0)
     drop_rate = -sp.diff(u_drop.subs(s, 0), e_r) / sigma
     check("drop relaxation rate", drop_rate, 40 * (lam + 1) / ((2 * lam + 3) * (19 * lam + 16)))
@@ -136,6 +138,8 @@ def main():
         for j in range(2):
             check(f"M[{i}][{j}]", M[i, j], closed[i, j])
     steady = -M.solve(g)
+    # Shear at rate gamma is the strain (gamma / 2)(x^2 - y^2) in its principal axes: the
+    # harmonic's coefficient is Ca / 2 in these units, and on the equator D12 is e_r.
     check("D12 / Ca in shear", steady[0] / 2, 5 * (3 * kappa + 1) / (8 * kappa))
     lag = M.solve(M.solve(g))[0] / (2 * steady[0])
     check("inclination's lag c", lag, (69 * kappa**2 * lam + 96 * kappa**2 + 63 * kappa * lam + 72 * kappa
