@@ -138,7 +138,7 @@ void NavierStokes<D>::update_properties() {
   if (!uniform_density_) face_coefficients<D>(tree_, rho, FaceMean::inverse_arithmetic, alpha_faces_);
   face_coefficients<D>(tree_, mu, FaceMean::harmonic, mu_faces_);
   // The explicit transpose stress, from the velocity at the start of the step (walls at
-  // t^n), or with BDF2 its extrapolation to t^(n+1) (extrapolate_start, synced by step()): a
+  // t^n), or with BDF2 its extrapolation to t^(n+1) (extrapolate_start): a
   // steady state then satisfies the full discrete stress balance exactly.
   std::array<std::span<const double>, D> u;
   for (int d = 0; d < D; ++d) {

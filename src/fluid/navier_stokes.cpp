@@ -102,6 +102,13 @@ double NavierStokes<D>::extrapolate_start(double dt) {
       prev[i] = now;
     });
   }
+  if (extrapolate_transpose) {  // synced as a velocity at t^(n+1): the walls then
+    const double start = boundary_time_;
+    boundary_time_ = time_ + dt;
+    for (int d = 0; d < D; ++d)
+      tree_.sync(transpose_velocity_[d], conditions_.velocity[d], tree::Prolongation::quadratic);
+    boundary_time_ = start;
+  }
   history_dt_ = dt;
   return history ? dt * (1.0 + w) / (1.0 + 2.0 * w) : dt;
 }
@@ -230,12 +237,6 @@ StepStats NavierStokes<D>::step() {
       const std::span<const double> u = tree_.values(u_[d]);
       start_velocity_[d].assign(u.begin(), u.end());
     }
-  }
-  if (!transpose_velocity_[0].empty()) {  // extrapolated to t^(n+1): the walls then
-    boundary_time_ = time_ + dt;
-    for (int d = 0; d < D; ++d)
-      tree_.sync(transpose_velocity_[d], conditions_.velocity[d], tree::Prolongation::quadratic);
-    boundary_time_ = time_;
   }
   if (properties_) update_properties();
   for (auto& v : transpose_velocity_) v.clear();  // this step's: an adapt may follow

@@ -361,7 +361,7 @@ class NavierStokes {
   double history_dt_ = 0.0;                // history_dt()
   // FlowOptions::bdf2: u <- u^ and u.prev <- u^n on the owned leaves; returns b dt (dt
   // without a history). With flow properties and a history it also fills
-  // transpose_velocity_.
+  // transpose_velocity_ (synced).
   double extrapolate_start(double dt);
   tree::FieldId p_ = 0, pf_ = 0;
   FaceField<D> uf_, force_, scratch_faces_;
@@ -385,7 +385,8 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   // FlowOptions::bdf2 with a history: u^n + w (u^n - u^(n-1)), the velocity the explicit
-  // transpose stress takes (extrapolate_start fills it, on owned leaves; empty otherwise).
+  // transpose stress takes (extrapolate_start fills and syncs it; step() empties it once
+  // update_properties has read it).
   std::array<std::vector<double>, D> transpose_velocity_;
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   double nu_max_ = 1.0;                         // the largest mu / rho: the shortest viscous times
