@@ -162,8 +162,7 @@ void NavierStokes<D>::update_properties() {
   if (embedded_) {
     // Embedded walls: the fractions times the face viscosities (the fractions' arrays hold
     // fraction * mu_), the cells uniform in both, and mu per cell slot for the walls' flux.
-    if (!uniform_density_)
-      throw std::invalid_argument("embedded walls with a density that varies: not implemented yet");
+    if (!uniform_density_) embedded_density();
     embedded_mu_faces_.resize(viscous_faces_.size());
     embedded_mu_uniform_.assign(slots, 0);
     const std::span<const std::uint8_t> open_uniform = embedded_->uniform();
@@ -174,6 +173,8 @@ void NavierStokes<D>::update_properties() {
         embedded_mu_faces_[i] = viscous_faces_[i] * (mu_faces_[i] / mu_);
       }
       embedded_mu_uniform_[c] = (mu_uniform_[c] && c < open_uniform.size() && open_uniform[c]) ? 1 : 0;
+      // The uniform cells' stencil takes the constant cell term rho / (theta dt) too.
+      if (!uniform_density_ && relative_density_[c] != 1.0) embedded_mu_uniform_[c] = 0;
     }
     cell_mu_.assign(mu.begin(), mu.end());
     tree_.restrict_and_exchange(cell_mu_);
@@ -184,6 +185,35 @@ void NavierStokes<D>::update_properties() {
     std::fill(transpose_[d].begin(), transpose_[d].end(), 0.0);
     transpose_stress<D>(tree_, u, mu, mu_faces_, d, transpose_[d], &varying_);
   }
+}
+
+template <int D>
+void NavierStokes<D>::embedded_density() {
+  // The projection's face coefficients: the fluid fractions (pressure_faces_ holds them
+  // times 1/density) times each face's 1/rho; uniform where the cell is open and every face
+  // has 1/density.
+  const double inv_rho = 1.0 / options_.density;
+  const std::span<const std::uint8_t> open_uniform = embedded_->uniform();
+  const std::size_t slots = alpha_faces_.size() / (2 * D);
+  embedded_alpha_faces_.resize(alpha_faces_.size());
+  embedded_alpha_uniform_.assign(slots, 0);
+#pragma omp parallel for schedule(static)
+  for (std::size_t c = 0; c < slots; ++c) {
+    bool uniform = c < open_uniform.size() && open_uniform[c];
+    for (int k = 0; k < 2 * D; ++k) {
+      const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
+      embedded_alpha_faces_[i] = pressure_faces_[i] * options_.density * alpha_faces_[i];
+      uniform = uniform && alpha_faces_[i] == inv_rho;
+    }
+    embedded_alpha_uniform_[c] = uniform ? 1 : 0;
+  }
+  // The viscous solves' cell term rho / (theta dt) per cell slot, relative to the density's;
+  // a parent takes the mean of its children's (the mass it stands for).
+  const std::span<const double> rho = tree_.values(rho_field_);
+  relative_density_.resize(rho.size());
+  for (std::size_t c = 0; c < rho.size(); ++c) relative_density_[c] = rho[c] * inv_rho;
+  tree_.restrict_and_exchange(relative_density_);
+  viscous_cells_.clear();  // remade with these densities by the next viscous solve
 }
 
 template <int D>
@@ -238,6 +268,8 @@ template void NavierStokes<2>::set_properties(Properties);
 template void NavierStokes<3>::set_properties(Properties);
 template void NavierStokes<2>::update_properties();
 template void NavierStokes<3>::update_properties();
+template void NavierStokes<2>::embedded_density();
+template void NavierStokes<3>::embedded_density();
 template MultigridStats NavierStokes<2>::variable_viscous_solve(int, double, double);
 template MultigridStats NavierStokes<3>::variable_viscous_solve(int, double, double);
 

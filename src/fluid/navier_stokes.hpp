@@ -336,6 +336,9 @@ class NavierStokes {
   // The fluid fractions of the faces with embedded walls (the weights of restrict_faces), or nullptr.
   const FaceField<D>* open_faces() const { return embedded_ ? &embedded_->faces() : nullptr; }
   MultigridStats embedded_viscous_solve(int d, double dt, double theta);
+  // With a density that varies (update_properties): the projection's face coefficients and
+  // the viscous cell term's densities.
+  void embedded_density();
   MultigridStats embedded_projection(FaceField<D>& uf, std::span<double> p, double dt, const MultigridOptions& opt);
   void embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g);
   // The advection's source g + (mu/rho) lap u_d with embedded walls, on the owned leaves.
@@ -403,7 +406,13 @@ class NavierStokes {
   // Embedded walls with a viscosity that varies (update_properties): the fractions times the
   // face viscosities, the cells uniform in both, and mu per cell slot (parents: the mean).
   std::vector<double> embedded_mu_faces_, cell_mu_;
-  std::vector<std::uint8_t> embedded_mu_uniform_;
+  std::vector<std::uint8_t> embedded_mu_uniform_;  // with a density that varies: also rho = density there
+  // Embedded walls with a density that varies (update_properties): the fractions times the
+  // faces' 1/rho and the cells open and at 1/density on every face (the projection's), and
+  // rho / density per cell slot (parents: the mean), which scales the viscous cell term.
+  std::vector<double> embedded_alpha_faces_, relative_density_;
+  std::vector<std::uint8_t> embedded_alpha_uniform_;
+  bool viscous_cells_scaled_ = false;  // viscous_cells_ carry relative_density_
   // The embedded viscous operator's face coefficients, uniform cells and wall terms: the
   // constant viscosity's, or the varying one's.
   struct EmbeddedViscous {

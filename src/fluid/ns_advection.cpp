@@ -176,7 +176,7 @@ void NavierStokes<D>::embedded_viscous_source(int d, std::span<const double> u, 
     }
     double s = src[c] + (transpose ? fluid * transpose[c] : 0.0);
     if (wall_flux_->cut(c)) s += v.walls.at(c) * wall_flux_->wall(c) * wall_velocity(d, c);
-    src[c] = g[c] + s / (options_.density * std::max(fluid, kSmallCell));
+    src[c] = g[c] + s / (cell_density(c) * std::max(fluid, kSmallCell));
   });
 }
 

@@ -75,18 +75,23 @@ template <int D>
 MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double theta) {
   // As variable_viscous_solve, divided by theta, each cell's balance over its fluid part:
   //   div(mu fs grad u) + walls - cs rho/(theta dt) u = -cs rho/(theta dt) u* - (1-theta)/theta (...)(u^n).
+  // A density that varies: rho = density * relative_density_ per cell (embedded_density).
   std::span<double> u = tree_.values(u_[d]);
   const double lambda = -options_.density / (theta * dt);
-  if (viscous_cells_.size() != static_cast<std::size_t>(tree_.num_cells()) || viscous_lambda_ != lambda) {
-    embedded_cell_coefficients<D>(tree_, *embedded_, lambda, viscous_cells_);
+  const bool scaled = properties_ && !uniform_density_;
+  if (viscous_cells_.size() != static_cast<std::size_t>(tree_.num_cells()) || viscous_lambda_ != lambda ||
+      viscous_cells_scaled_ != scaled) {
+    embedded_cell_coefficients<D>(tree_, *embedded_, lambda, viscous_cells_,
+                                  scaled ? std::span<const double>(relative_density_) : std::span<const double>());
     viscous_lambda_ = lambda;
+    viscous_cells_scaled_ = scaled;
   }
   const std::span<const double> volume = embedded_->volume();
   // A viscosity that varies adds the transpose stress over each cell's fluid part.
   const double* transpose = properties_ ? transpose_[d].data() : nullptr;
   tree_.for_each_leaf([&](Index c) {
-    const double fluid = volume[static_cast<std::size_t>(c)];
-    rhs_[c] = lambda * fluid * u[c] - (transpose ? fluid * transpose[c] / theta : 0.0);
+    const double fluid = volume[static_cast<std::size_t>(c)] * (scaled ? relative_density_[c] : 1.0);
+    rhs_[c] = lambda * fluid * u[c] - (transpose ? volume[static_cast<std::size_t>(c)] * transpose[c] / theta : 0.0);
   });
   const EmbeddedViscous v = embedded_viscous();
   const WallTerms<D>& walls = v.walls;
@@ -107,7 +112,7 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
       tree_, {mu_, v.faces, uniform}, {lambda, viscous_cells_.data(), uniform}, conditions_.velocity[d], walls);
   MultigridOptions opt = with_krylov_on_growth(options_.viscous);
-  opt.tolerance *= options_.density / (theta * dt);
+  opt.tolerance *= (properties_ ? rho_min_ : options_.density) / (theta * dt);  // as variable_viscous_solve
   // The cell term rho / (theta dt) holds the cells near the walls: the band passes bought
   // no cycle (seed channel in an embedded box: 4 cycles a step with and without) and cost
   // a sixth of the step; the steady sphere and cylinder arrays (dt = 0.2) ran 2.5x faster
@@ -123,13 +128,17 @@ MultigridStats NavierStokes<D>::embedded_projection(FaceField<D>& uf, std::span<
   const FaceField<D>& open = embedded_->faces();
   divergence<D>(tree_, uf, div_, &open);  // of each cell's fluid part
   tree_.for_each_owned_leaf([&](Index c) { rhs_[c] = div_[c] / dt; });
+  const bool density_varies = properties_ && !uniform_density_;  // embedded_density()'s coefficients
   const EllipticOperator<D, EmbeddedFaces<D>, PinnedCells> op(
-      tree_, {1.0 / options_.density, pressure_faces_.data(), embedded_->uniform().data()}, {pressure_pins_.data()},
-      conditions_.pressure);
+      tree_,
+      {1.0 / options_.density, density_varies ? embedded_alpha_faces_.data() : pressure_faces_.data(),
+       density_varies ? embedded_alpha_uniform_.data() : embedded_->uniform().data()},
+      {pressure_pins_.data()}, conditions_.pressure);
   const MultigridStats s = solve(op, p, rhs_, mg_, with_krylov_on_growth(opt));  // leaves p synced
   const double inv_rho = 1.0 / options_.density;
-  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>&) {
-    uf[d][hi] = open[d][hi] > 0.0 ? uf[d][hi] - dt * inv_rho * (p[hi] - p[lo]) / h : 0.0;
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
+    const double alpha = density_varies ? face_coefficient<D>(lv, alpha_faces_, d, lo, hi) : inv_rho;
+    uf[d][hi] = open[d][hi] > 0.0 ? uf[d][hi] - dt * alpha * (p[hi] - p[lo]) / h : 0.0;
   });
   return s;
 }

@@ -192,16 +192,15 @@ TEST(CaseSolids, BadTablesAreOneLineNamingTheKey) {
 // Moving walls: a sphere turning about its centre, a cylinder turning about and sliding along
 // its axis; the wall velocity at a point of the wall, written back; motions that are not
 // along the wall refused naming the key.
-// An inner fluid of another viscosity runs beside embedded walls; one of another density
-// (the pressure operator with walls takes one density) is refused, naming the key.
+// An inner fluid of another viscosity or density runs beside embedded walls; a ratio that is
+// not positive is refused, naming the key.
 TEST(CaseSolids, InnerFluidsBesideWalls) {
   const std::string base = std::string(kBase) +
                            "[[solid]]\nshape = \"sphere\"\ncentre = [3.5, 0.5, 0.5]\nradius = 0.2\n"
                            "[[capsule]]\nradius = 0.2\ncentre = [1.5, 0.5, 0.5]\n";
   EXPECT_NO_THROW((void)parse_case_text(base + "viscosity_ratio = 5\n", "case.toml"));
-  EXPECT_THAT(error_of(base + "density_ratio = 2\n"),
-              HasSubstr("capsule[0].density_ratio = 2.0: an inner fluid of another density beside embedded walls "
-                        "([[solid]]) is not implemented yet"));
+  EXPECT_NO_THROW((void)parse_case_text(base + "density_ratio = 2\nviscosity_ratio = 5\n", "case.toml"));
+  EXPECT_THAT(error_of(base + "density_ratio = 0\n"), HasSubstr("capsule[0].density_ratio = 0.0"));
 }
 
 TEST(CaseSolids, WallsSlidingAlongThemselves) {

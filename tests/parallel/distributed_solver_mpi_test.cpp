@@ -512,6 +512,22 @@ TEST(DistributedFlow, CavityAroundACylinderNavierStokesMatchesSerial2D) {
                 geometry::sphere({0.47, 0.52, 0.0}, 0.21));
 }
 
+// The cavity's varying density and viscosity (above) around the cylinder, Navier-Stokes,
+// adapted every 4 steps: the projection's faces 1/rho times the fractions and the viscous
+// cell term rho / dt per cell (parents: their children's mean) on every rank.
+TEST(DistributedFlow, CavityAroundACylinderWithVaryingPropertiesMatchesSerial2D) {
+  const NavierStokes<2>::Properties layers = [](const Tree<2>& t, std::span<double> rho, std::span<double> mu) {
+    for (Index c = 0; c < t.num_cells(); ++c) {
+      const double x = t.center(c)[0], y = t.center(c)[1];
+      rho[static_cast<std::size_t>(c)] = 1.0 + 9.0 * std::min(1.0, 4.0 * ((1.0 - x) * (1.0 - x) + (1.0 - y) * (1.0 - y)));
+      mu[static_cast<std::size_t>(c)] = 0.01 * (1.0 + 4.0 * (1.0 - y));
+    }
+  };
+  check_flow<2>({.roots = {1, 1}, .max_level = 7}, [](const Box<2>& b) { return b.hi[1] > 0.8 ? 6 : 5; },
+                {.Re = 100, .dt = 0.02, .cfl = 0.8, .boundaries = lid<2>()}, 12, 4, 4,
+                geometry::sphere({0.47, 0.52, 0.0}, 0.21), layers);
+}
+
 TEST(DistributedFlow, CavityAroundABallStokesMatchesSerial3D) {
   check_flow<3>({.roots = {1, 1, 1}, .max_level = 4}, [](const Box<3>&) { return 4; },
                 {.Re = 10, .stokes = true, .dt = 0.01, .boundaries = lid<3>()}, 5, 0, 0, geometry::sphere({0.48, 0.51, 0.46}, 0.23));

@@ -26,7 +26,7 @@ void embedded_face_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D
 
 template <int D>
 void embedded_cell_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double lambda,
-                                std::vector<double>& out) {
+                                std::vector<double>& out, std::span<const double> scale) {
   out.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
   const std::span<const double> volume = g.volume();
   const FaceField<D>& f = g.faces();
@@ -40,14 +40,15 @@ void embedded_cell_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D
       double open = 0.0;
       for (int d = 0; d < D; ++d) open += f[d][static_cast<std::size_t>(c)] + f[d][static_cast<std::size_t>(row[2 * d + 1])];
       const double v = volume[static_cast<std::size_t>(c)];
-      out[static_cast<std::size_t>(c)] = v > 0.0 && open > 0.0 ? lambda * v : pinned;
+      const double s = scale.empty() ? 1.0 : scale[static_cast<std::size_t>(c)];
+      out[static_cast<std::size_t>(c)] = v > 0.0 && open > 0.0 ? lambda * s * v : pinned;
     }
   }
 }
 
 template void embedded_face_coefficients<2>(const tree::Tree<2>&, const EmbeddedGeometry<2>&, double, std::vector<double>&);
 template void embedded_face_coefficients<3>(const tree::Tree<3>&, const EmbeddedGeometry<3>&, double, std::vector<double>&);
-template void embedded_cell_coefficients<2>(const tree::Tree<2>&, const EmbeddedGeometry<2>&, double, std::vector<double>&);
-template void embedded_cell_coefficients<3>(const tree::Tree<3>&, const EmbeddedGeometry<3>&, double, std::vector<double>&);
+template void embedded_cell_coefficients<2>(const tree::Tree<2>&, const EmbeddedGeometry<2>&, double, std::vector<double>&, std::span<const double>);
+template void embedded_cell_coefficients<3>(const tree::Tree<3>&, const EmbeddedGeometry<3>&, double, std::vector<double>&, std::span<const double>);
 
 }  // namespace capsflow::fluid

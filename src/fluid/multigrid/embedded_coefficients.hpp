@@ -19,15 +19,16 @@ template <int D>
 void embedded_face_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double alpha,
                                 std::vector<double>& out);
 
-// One value per cell slot (every active cell): lambda times the cell's fluid fraction, and
-// -1/h^2 in cells without fluid (their equation a_c = -h^2 b_c: zero for b = 0).
+// One value per cell slot (every active cell): lambda times the cell's fluid fraction (and
+// times scale[c] where scale is given: a density that varies), and -1/h^2 in cells without
+// fluid (their equation a_c = -h^2 b_c: zero for b = 0).
 template <int D>
 void embedded_cell_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double lambda,
-                                std::vector<double>& out);
+                                std::vector<double>& out, std::span<const double> scale = {});
 
 extern template void embedded_face_coefficients<2>(const tree::Tree<2>&, const EmbeddedGeometry<2>&, double, std::vector<double>&);
 extern template void embedded_face_coefficients<3>(const tree::Tree<3>&, const EmbeddedGeometry<3>&, double, std::vector<double>&);
-extern template void embedded_cell_coefficients<2>(const tree::Tree<2>&, const EmbeddedGeometry<2>&, double, std::vector<double>&);
-extern template void embedded_cell_coefficients<3>(const tree::Tree<3>&, const EmbeddedGeometry<3>&, double, std::vector<double>&);
+extern template void embedded_cell_coefficients<2>(const tree::Tree<2>&, const EmbeddedGeometry<2>&, double, std::vector<double>&, std::span<const double>);
+extern template void embedded_cell_coefficients<3>(const tree::Tree<3>&, const EmbeddedGeometry<3>&, double, std::vector<double>&, std::span<const double>);
 
 }  // namespace capsflow::fluid
