@@ -25,7 +25,13 @@ Checks independent of those closed forms:
 - the frame argument: with the drop's single rate it gives Chaffey & Brenner's (1967) lag
   (19 lambda + 16)(2 lambda + 3) / (80 (lambda + 1)) Ca_sigma;
 - the drive g: -[M^-1 g]_r / 2 is Barthes-Biesel's (1980) first-order D12 / Ca,
-  5 (3 kappa + 1) / (8 kappa), for every lambda.
+  5 (3 kappa + 1) / (8 kappa), for every lambda;
+- the energy: the membrane's elastic energy E = x^T K x / 2 (x = (e_r, e_t), K from the
+  strain energy, not from the load) is dissipated by the two fluids, R dx/dt = -K x with R
+  the dissipation's quadratic form. So R = -K M^-1 must be symmetric, free of kappa (the
+  fluids' only) and affine in lambda (the inside's dissipation is lambda times its flow's),
+  with both parts positive definite. The drop checks leave the response to a tangential
+  load unchecked; this checks it, and M's dependence on lambda with it.
 """
 import sys
 
@@ -109,6 +115,17 @@ def membrane_load():
     return f_r, f_t
 
 
+def membrane_energy_matrix():
+    """K with E = x^T K x / 2: the linear membrane's strain energy
+    ((kappa - 1) tr(e)^2 + 2 e : e) / 2 integrated over the unit sphere."""
+    u_r, u_th = e_r * P2, e_t * dP2
+    e_thth = sp.diff(u_th, theta) + u_r
+    e_phph = u_th * sp.cos(theta) / sp.sin(theta) + u_r
+    density = ((kappa - 1) * (e_thth + e_phph) ** 2 + 2 * (e_thth**2 + e_phph**2)) / 2
+    energy = 2 * sp.pi * sp.integrate(sp.expand(density * sp.sin(theta)), (theta, 0, sp.pi))
+    return sp.Matrix(2, 2, lambda i, j: sp.diff(energy, (e_r, e_t)[i], (e_r, e_t)[j]))
+
+
 def main():
     failures = []
 
@@ -137,6 +154,15 @@ def main():
     for i in range(2):
         for j in range(2):
             check(f"M[{i}][{j}]", M[i, j], closed[i, j])
+    # The energy identity (module docstring): R = -K M^-1.
+    R = sp.simplify(-membrane_energy_matrix() * M.inv())
+    check("R - R^T (the dissipation's form is symmetric)", sp.simplify(R[0, 1] - R[1, 0]), 0)
+    check("dR/dkappa (the dissipation is the fluids')", sp.simplify(sp.diff(R, kappa)).norm(), 0)
+    check("d2R/dlambda2 (affine in lambda)", sp.simplify(sp.diff(R, lam, 2)).norm(), 0)
+    for name, part in (("outside", R.subs(lam, 0)), ("inside", sp.diff(R, lam))):
+        if not (part[0, 0] > 0 and sp.simplify(part.det()) > 0):
+            print(f"FAILED: the {name} fluid's dissipation is not positive definite: {part}")
+            failures.append(f"dissipation {name}")
     steady = -M.solve(g)
     # Shear at rate gamma is the strain (gamma / 2)(x^2 - y^2) in its principal axes: the
     # harmonic's coefficient is Ca / 2 in these units, and on the equator D12 is e_r.
