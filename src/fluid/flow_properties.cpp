@@ -188,6 +188,52 @@ void NavierStokes<D>::update_properties() {
 }
 
 template <int D>
+void NavierStokes<D>::stabilise_band(double h) {
+  // BDF2 with a history only (transpose_velocity_), and only as far as the step is stiff
+  // at the finest cells: sigma x / (1 + x), x = nu h / dx^2 (one number on every rank). A
+  // step short against the cells' viscous time is stable without it, and sigma's O(dt^2)
+  // term then only adds error (TimeOrder.ImplicitBdf2WithAnInnerFluid).
+  stabilised_ = false;
+  if (transpose_velocity_[0].empty()) return;
+  const double finest = tree_.cell_size(tree_.max_level());
+  const double x = nu_max_ * h / (finest * finest);
+  const double sigma = kTransposeStabilisation * x / (1.0 + x);
+  stabilised_ = true;
+  // mu_s: (1 + sigma) mu on the leaves where mu varies (every rank has them for its ghosts
+  // too), mu elsewhere; its face means as mu_faces_'s.
+  const std::span<const double> mu = tree_.values(mu_field_);
+  std::vector<double> mu_s(mu.begin(), mu.end());
+  for (const auto& [c, level] : varying_) mu_s[static_cast<std::size_t>(c)] *= 1.0 + sigma;
+  face_coefficients<D>(tree_, mu_s, FaceMean::harmonic, stabilised_mu_faces_);
+  const std::size_t slots = stabilised_mu_faces_.size() / (2 * D);
+  stabilising_faces_.resize(stabilised_mu_faces_.size());
+  stabilised_uniform_.assign(slots, 0);
+#pragma omp parallel for schedule(static)
+  for (std::size_t c = 0; c < slots; ++c) {
+    bool uniform = true;
+    for (int k = 0; k < 2 * D; ++k) {
+      const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
+      stabilising_faces_[i] = stabilised_mu_faces_[i] - mu_faces_[i];
+      uniform = uniform && stabilised_mu_faces_[i] == mu_;
+    }
+    stabilised_uniform_[c] = uniform ? 1 : 0;
+  }
+  if (!embedded_) return;
+  embedded_stabilised_faces_.resize(viscous_faces_.size());
+  embedded_stabilised_uniform_.assign(slots, 0);
+#pragma omp parallel for schedule(static)
+  for (std::size_t c = 0; c < slots; ++c) {
+    for (int k = 0; k < 2 * D; ++k) {
+      const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
+      embedded_stabilised_faces_[i] = viscous_faces_[i] * (stabilised_mu_faces_[i] / mu_);
+    }
+    embedded_stabilised_uniform_[c] = embedded_mu_uniform_[c] && stabilised_uniform_[c] ? 1 : 0;
+  }
+  stabilised_cell_mu_ = std::move(mu_s);
+  tree_.restrict_and_exchange(stabilised_cell_mu_);
+}
+
+template <int D>
 void NavierStokes<D>::embedded_density() {
   // The projection's face coefficients: the fluid fractions (pressure_faces_ holds them
   // times 1/density) times each face's 1/rho; uniform where the cell is open and every face
@@ -230,6 +276,15 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   });
   if (theta < 1.0)  // explicit part at u^n (not u*: shift_by_g), walls at t^n
     subtract_explicit_half(d, dt, theta, EllipticOperator<D, FaceArray<D>>(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]));
+  // BDF2: the band's stabilisation (stabilise_band), its explicit half at u_e (synced at
+  // t^(n+1) by extrapolate_start: the sides' values enter as in the solve).
+  if (stabilised_) {
+    EllipticOperator<D, FaceArray<D>>(tree_, {stabilising_faces_.data()}, {}, conditions_.velocity[d])
+        .apply_leaves(transpose_velocity_[d], div_);
+    tree_.for_each_leaf([&](Index c) { rhs_[c] += div_[c]; });
+  }
+  const std::vector<double>& faces = stabilised_ ? stabilised_mu_faces_ : mu_faces_;
+  const std::vector<std::uint8_t>& uniform = stabilised_ ? stabilised_uniform_ : mu_uniform_;
   // The velocity tolerance in the residual's units, rho/(theta dt), with the smallest
   // density: a residual r moves a cell's velocity by about r theta dt / rho_c, so every cell
   // is then within the velocity tolerance (as the constant path, for constant rho).
@@ -240,7 +295,7 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   opt.krylov_on_growth = true;
   if (uniform_density_) {
     EllipticOperator<D, EmbeddedFaces<D>, ConstantCells> op(
-        tree_, {.value = mu_, .data = mu_faces_.data(), .full = mu_uniform_.data()}, {-rho_min_ / (theta * dt)},
+        tree_, {.value = mu_, .data = faces.data(), .full = uniform.data()}, {-rho_min_ / (theta * dt)},
         conditions_.velocity[d]);
     choose_viscous_guess(d, dt, op);
     return solve(op, u, rhs_, mg_, opt);
@@ -248,8 +303,7 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   // The multigrid relaxes parents too: they take the volume mean of their children's
   // (distributed: the ghosts' from their owners).
   tree_.restrict_and_exchange(lambda_);
-  EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {mu_faces_.data()}, {lambda_.data()},
-                                                  conditions_.velocity[d]);
+  EllipticOperator<D, FaceArray<D>, CellArray> op(tree_, {faces.data()}, {lambda_.data()}, conditions_.velocity[d]);
   choose_viscous_guess(d, dt, op);
   return solve(op, u, rhs_, mg_, opt);
 }
@@ -268,6 +322,8 @@ template void NavierStokes<2>::set_properties(Properties);
 template void NavierStokes<3>::set_properties(Properties);
 template void NavierStokes<2>::update_properties();
 template void NavierStokes<3>::update_properties();
+template void NavierStokes<2>::stabilise_band(double);
+template void NavierStokes<3>::stabilise_band(double);
 template void NavierStokes<2>::embedded_density();
 template void NavierStokes<3>::embedded_density();
 template MultigridStats NavierStokes<2>::variable_viscous_solve(int, double, double);

@@ -238,8 +238,10 @@ StepStats NavierStokes<D>::step() {
       start_velocity_[d].assign(u.begin(), u.end());
     }
   }
-  if (properties_) update_properties();
-  for (auto& v : transpose_velocity_) v.clear();  // this step's: an adapt may follow
+  if (properties_) {
+    update_properties();
+    stabilise_band(h);
+  }
   if (!options_.stokes) prediction_and_advection(h, stats);
   boundary_time_ = time_ + dt;
   if (options_.current_force_in_viscous && face_force_) {
@@ -251,6 +253,7 @@ StepStats NavierStokes<D>::step() {
     centred_gradient(h, /*only_g=*/true);
   }
   viscous_and_projection_stages(h, stats);
+  for (auto& v : transpose_velocity_) v.clear();  // this step's: an adapt may follow
   time_ += dt;
   last_dt_ = dt;
   stats.t = time_;

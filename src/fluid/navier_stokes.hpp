@@ -336,6 +336,15 @@ class NavierStokes {
   // The fluid fractions of the faces with embedded walls (the weights of restrict_faces), or nullptr.
   const FaceField<D>* open_faces() const { return embedded_ ? &embedded_->faces() : nullptr; }
   MultigridStats embedded_viscous_solve(int d, double dt, double theta);
+  // BDF2 with flow properties: the explicit transpose stress at the extrapolated velocity
+  // u_e = u^n + w (u^n - u^(n-1)) is stable only while it stays below a third of the implicit
+  // stress (the extrapolation's bound), and where the viscosity jumps it reaches the whole
+  // of it (lambda = 0.01 and 100 blew up, 0.2 and 5 rang for tens of steps). So on the band
+  // where mu varies the solves take sigma div(mu grad u) implicitly and at u_e explicitly:
+  // second order still, and the explicit share in bounds. A scalar model asks sigma >= 1/2;
+  // at lambda = 100 sigma = 1 still left an even-odd oscillation of the band, 3 none.
+  static constexpr double kTransposeStabilisation = 3.0;
+  void stabilise_band(double h);  // after update_properties, h the stages' step: the stabilised_* arrays
   // With a density that varies (update_properties): the projection's face coefficients and
   // the viscous cell term's densities.
   void embedded_density();
@@ -388,9 +397,17 @@ class NavierStokes {
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
   // FlowOptions::bdf2 with a history: u^n + w (u^n - u^(n-1)), the velocity the explicit
-  // transpose stress takes (extrapolate_start fills and syncs it; step() empties it once
-  // update_properties has read it).
+  // transpose stress and its stabilisation take (extrapolate_start fills and syncs it; step()
+  // empties it at its end).
   std::array<std::vector<double>, D> transpose_velocity_;
+  // BDF2's stabilisation of the explicit transpose stress (stabilise_band): the viscous
+  // solves take mu_s = (1 + sigma) mu on the band's leaves implicitly and the difference
+  // div((mu_s - mu) grad u) at transpose_velocity_ explicitly. Face means of mu_s, their
+  // difference with mu_faces_, the cells every face of which has mu_; with embedded walls
+  // the fractions times them, those cells also open, and mu_s per cell slot.
+  bool stabilised_ = false;  // this step's viscous solves take them
+  std::vector<double> stabilised_mu_faces_, stabilising_faces_, embedded_stabilised_faces_, stabilised_cell_mu_;
+  std::vector<std::uint8_t> stabilised_uniform_, embedded_stabilised_uniform_;
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   double nu_max_ = 1.0;                         // the largest mu / rho: the shortest viscous times
   bool uniform_density_ = false;                // variable viscosity only

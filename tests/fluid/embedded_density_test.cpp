@@ -211,7 +211,9 @@ std::array<std::vector<double>, 3> flow_around_a_heavy_disc(bool embedded) {
     out[1].push_back(ns.u(1)[c]);
     out[2].push_back(t.values(ns.pressure())[c]);
   }
-  if (embedded) EXPECT_EQ(ns.embedded()->volume().size(), static_cast<std::size_t>(t.num_cells()));
+  if (embedded) {
+    EXPECT_EQ(ns.embedded()->volume().size(), static_cast<std::size_t>(t.num_cells()));
+  }
   return out;
 }
 

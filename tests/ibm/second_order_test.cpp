@@ -52,15 +52,17 @@ TEST(TimeOrder, ImplicitBdf2IsSecondOrder) {
 
 // The same with an inside five times as viscous: the explicit transpose stress
 // div(mu grad u^T), where mu varies, is taken at u^n + w (u^n - u^(n-1)) (NavierStokes::
-// extrapolate_start). Measured: 4.16e-4, 1.05e-4, 2.55e-5 (orders 1.99, 2.04); at the
-// step's extrapolated start u^, as before, 4.42e-4, 1.25e-4, 3.80e-5 (1.82, 1.72: first
-// order underneath).
+// extrapolate_start), with the band's stabilisation (NavierStokes::stabilise_band; sigma
+// 0.24 to 0.03 here, where the steps are short against the cells' viscous time). Measured:
+// 6.52e-4, 1.54e-4, 3.28e-5 (orders 2.08, 2.23); without the stabilisation 4.16e-4,
+// 1.05e-4, 2.55e-5 (1.99, 2.04); at the step's extrapolated start u^, as before that,
+// 4.42e-4, 1.25e-4, 3.80e-5 (1.82, 1.72: first order underneath).
 TEST(TimeOrder, ImplicitBdf2WithAnInnerFluid) {
   const auto d = test::implicit_ladder(bdf2_ladder(), NodeScheme::bdf2, 1e-6, {2e-3, 1e-3, 5e-4, 2.5e-4},
                                        0.016, "BDF2, lambda 5", 5.0);
   EXPECT_GT(std::log2(d[0] / d[1]), 1.9);
   EXPECT_GT(std::log2(d[1] / d[2]), 1.9);
-  EXPECT_LT(d[2], 3e-5);
+  EXPECT_LT(d[2], 4e-5);
 }
 
 }  // namespace
