@@ -123,20 +123,6 @@ Errors startup_errors(const TwoDensityStartup& s, int level, bool stokes, const 
   return e;
 }
 
-// The least-squares slope of log2(error) against the level.
-double fitted_order(const std::vector<double>& errors) {
-  const double n = static_cast<double>(errors.size());
-  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
-  for (std::size_t k = 0; k < errors.size(); ++k) {
-    const double x = static_cast<double>(k), y = std::log2(errors[k]);
-    sx += x;
-    sy += y;
-    sxx += x * x;
-    sxy += x * y;
-  }
-  return -(n * sxy - sx * sy) / (n * sxx - sx * sx);
-}
-
 // Measured (Stokes and Navier-Stokes alike, u . grad u = 0): max 1.93e-4, 4.40e-5, 1.56e-5
 // and L1 6.79e-5, 1.83e-5, 6.65e-6 at levels 5-7 (L1 orders 1.89, 1.46), against a density
 // effect of 1.9e-2; with one density (rho2 = rho1) max 1.94e-4, 4.48e-5, 1.57e-5 and L1
@@ -165,8 +151,8 @@ TEST(EmbeddedDensity, TwoDensityStartupBetweenWallsOffTheGrid) {
       EXPECT_GE(std::log2(e[k - 1].max / e[k].max), 1.0);
       EXPECT_GE(std::log2(e[k - 1].l1 / e[k].l1), 1.0);
     }
-    std::printf("  fitted L1 order %.2f\n", fitted_order(l1));
-    EXPECT_GE(fitted_order(l1), 1.5);
+    std::printf("  fitted L1 order %.2f\n", testing::fitted_order(l1));
+    EXPECT_GE(testing::fitted_order(l1), 1.5);
     EXPECT_LT(e.back().max, 2e-3 * contrast);
   }
 }

@@ -69,27 +69,14 @@ Errors steady_poiseuille(Tree<D>& t, const geometry::SolidPtr& solid, const std:
   return e;
 }
 
-// The slope of log2(error) against the level, by least squares: with one wall position the
-// cut fractions change from level to level, and so does the error's constant, so the order
-// is read from the trend over several levels (each pair must still converge). Between two
+// Each pair of levels must converge, and the order is read from the trend over several
+// (testing::fitted_order): with one wall position the cut fractions change from level to
+// level, and so does the error's constant. Between two
 // planar walls the cut cells whose centres lie in the solid see one row of fluid centres in
 // their 3^D block, so their wall gradient keeps the flow's curvature times that row's
 // distance: measured channel errors 1.9e-4, 4.5e-5, 1.6e-5, 6.8e-6 (max) at levels 5-8,
 // fitted orders 1.61 (max), 1.57 (L1); in a pipe the cut positions vary along the wall and
 // the orders are 2.
-double fitted_order(const std::vector<double>& errors) {
-  const double n = static_cast<double>(errors.size());
-  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
-  for (std::size_t k = 0; k < errors.size(); ++k) {
-    const double x = static_cast<double>(k), y = std::log2(errors[k]);
-    sx += x;
-    sy += y;
-    sxx += x * x;
-    sxy += x * y;
-  }
-  return -(n * sxy - sx * sy) / (n * sxx - sx * sx);
-}
-
 void expect_orders(const std::vector<Errors>& e, const char* what) {
   std::vector<double> max, l1;
   for (std::size_t k = 0; k < e.size(); ++k) {
@@ -105,9 +92,9 @@ void expect_orders(const std::vector<Errors>& e, const char* what) {
       EXPECT_GE(std::log2(e[k - 1].l1 / e[k].l1), 1.0) << what;
     }
   }
-  std::printf("%s: fitted orders %.2f (max) %.2f (L1)\n", what, fitted_order(max), fitted_order(l1));
-  EXPECT_GE(fitted_order(max), 1.5) << what;
-  EXPECT_GE(fitted_order(l1), 1.5) << what;
+  std::printf("%s: fitted orders %.2f (max) %.2f (L1)\n", what, testing::fitted_order(max), testing::fitted_order(l1));
+  EXPECT_GE(testing::fitted_order(max), 1.5) << what;
+  EXPECT_GE(testing::fitted_order(l1), 1.5) << what;
 }
 
 TEST(EmbeddedFlow, PoiseuilleBetweenWallsOffTheGrid) {
@@ -173,7 +160,7 @@ TEST(EmbeddedFlow, TwoFluidPoiseuilleBetweenWallsOffTheGrid) {
       EXPECT_LT(e[k].divergence, 1e-9);
       l1.push_back(e[k].l1);
     }
-    EXPECT_GE(fitted_order(l1), 1.6);
+    EXPECT_GE(testing::fitted_order(l1), 1.6);
   }
 }
 

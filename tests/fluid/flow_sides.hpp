@@ -30,4 +30,20 @@ inline void expect_orders_at_least(const char* what, const std::vector<double>& 
   }
 }
 
+// The least-squares slope of -log2(error) against the refinement step: the observed order
+// over several grids, where one pair's order moves with where a wall or an interface falls
+// in its cells.
+inline double fitted_order(const std::vector<double>& errors) {
+  const double n = static_cast<double>(errors.size());
+  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+  for (std::size_t k = 0; k < errors.size(); ++k) {
+    const double x = static_cast<double>(k), y = std::log2(errors[k]);
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+  }
+  return -(n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
 }  // namespace capsflow::fluid::testing
