@@ -219,18 +219,24 @@ void NavierStokes<D>::stabilise_band(double h) {
     stabilised_uniform_[c] = uniform ? 1 : 0;
   }
   if (!embedded_) return;
+  // With embedded walls the same times the fluid fractions, and mu_s per cell slot for the
+  // walls' flux; the differences with mu's too (zero on the uniform cells).
   embedded_stabilised_faces_.resize(viscous_faces_.size());
+  embedded_stabilising_faces_.resize(viscous_faces_.size());
   embedded_stabilised_uniform_.assign(slots, 0);
 #pragma omp parallel for schedule(static)
   for (std::size_t c = 0; c < slots; ++c) {
     for (int k = 0; k < 2 * D; ++k) {
       const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
       embedded_stabilised_faces_[i] = viscous_faces_[i] * (stabilised_mu_faces_[i] / mu_);
+      embedded_stabilising_faces_[i] = viscous_faces_[i] * (stabilising_faces_[i] / mu_);
     }
     embedded_stabilised_uniform_[c] = embedded_mu_uniform_[c] && stabilised_uniform_[c] ? 1 : 0;
   }
   stabilised_cell_mu_ = std::move(mu_s);
   tree_.restrict_and_exchange(stabilised_cell_mu_);
+  stabilising_cell_mu_.resize(stabilised_cell_mu_.size());
+  for (std::size_t c = 0; c < stabilised_cell_mu_.size(); ++c) stabilising_cell_mu_[c] = stabilised_cell_mu_[c] - cell_mu_[c];
 }
 
 template <int D>

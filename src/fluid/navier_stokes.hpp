@@ -404,9 +404,11 @@ class NavierStokes {
   // solves take mu_s = (1 + sigma) mu on the band's leaves implicitly and the difference
   // div((mu_s - mu) grad u) at transpose_velocity_ explicitly. Face means of mu_s, their
   // difference with mu_faces_, the cells every face of which has mu_; with embedded walls
-  // the fractions times them, those cells also open, and mu_s per cell slot.
+  // the fractions times both, those cells also open, and mu_s per cell slot with its
+  // difference with cell_mu_.
   bool stabilised_ = false;  // this step's viscous solves take them
-  std::vector<double> stabilised_mu_faces_, stabilising_faces_, embedded_stabilised_faces_, stabilised_cell_mu_;
+  std::vector<double> stabilised_mu_faces_, stabilising_faces_;
+  std::vector<double> embedded_stabilised_faces_, embedded_stabilising_faces_, stabilised_cell_mu_, stabilising_cell_mu_;
   std::vector<std::uint8_t> stabilised_uniform_, embedded_stabilised_uniform_;
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   double nu_max_ = 1.0;                         // the largest mu / rho: the shortest viscous times

@@ -110,21 +110,17 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
           rhs_[c] -= v.walls.at(c) * wall_flux_->wall(c) * wall_velocity(d, c) / theta;
     }
   // BDF2: the band's stabilisation (stabilise_band): the solve takes mu_s, and its
-  // difference with mu at u_e is explicit (the walls' flux homogeneous in both, as in the
-  // solve: a moving wall's share is the source above).
+  // difference with mu at u_e is explicit (the walls' flux homogeneous, as in the solve: a
+  // moving wall's share is the source above; zero on the uniform cells).
   EmbeddedViscous solved = v;
   if (stabilised_) {
     solved = {embedded_stabilised_faces_.data(), embedded_stabilised_uniform_.data(),
               WallTerms<D>{wall_flux_.get(), mu_, stabilised_cell_mu_.data()}};
-    const std::span<const double> ue = transpose_velocity_[d];
-    std::vector<double> plain(rhs_.size());
-    EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>>(tree_, {mu_, solved.faces, solved.uniform}, {},
-                                                                   conditions_.velocity[d], solved.walls)
-        .apply_leaves(ue, div_);
-    EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>>(tree_, {mu_, v.faces, uniform}, {},
-                                                                   conditions_.velocity[d], walls)
-        .apply_leaves(ue, plain);
-    tree_.for_each_leaf([&](Index c) { rhs_[c] += div_[c] - plain[c]; });
+    EllipticOperator<D, EmbeddedFaces<D>, ZeroCells, WallTerms<D>>(
+        tree_, {0.0, embedded_stabilising_faces_.data(), embedded_stabilised_uniform_.data()}, {}, conditions_.velocity[d],
+        WallTerms<D>{wall_flux_.get(), 0.0, stabilising_cell_mu_.data()})
+        .apply_leaves(transpose_velocity_[d], div_);
+    tree_.for_each_leaf([&](Index c) { rhs_[c] += div_[c]; });
   }
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
       tree_, {mu_, solved.faces, solved.uniform}, {lambda, viscous_cells_.data(), solved.uniform}, conditions_.velocity[d],
