@@ -39,9 +39,22 @@ Adaptation<D>::Adaptation(NavierStokes<D>& ns, AdaptationOptions options) : ns_(
 }
 
 template <int D>
+bool Adaptation<D>::solid_at_wall_level(const tree::Box<D>& b) const {
+  const EmbeddedGeometry<D>* embedded = ns_.embedded();
+  if (!embedded) return false;
+  // Only a box of the level above the wall level or finer is tested, at the wall level or
+  // its own: a coarser one may hold a fluid region narrower than its cells that no lattice
+  // of its own would see.
+  const int level = static_cast<int>(std::lround(std::log2(ns_.tree().options().root_size / (b.hi[0] - b.lo[0]))));
+  if (level < options_.wall_level - 1) return false;
+  return embedded->solid_at_level(b, std::max(level, options_.wall_level));
+}
+
+template <int D>
 int Adaptation<D>::required_level(const tree::Box<D>& b) const {
   int r = bodies_ ? bodies_->required_level(b) : 0;
-  if (options_.wall_level > r && touches_wall<D>(ns_.tree().options(), ns_.options().boundaries, ns_.embedded(), b))
+  if (options_.wall_level > r && touches_wall<D>(ns_.tree().options(), ns_.options().boundaries, ns_.embedded(), b) &&
+      !solid_at_wall_level(b))
     r = options_.wall_level;
   return r;
 }

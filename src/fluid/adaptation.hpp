@@ -89,6 +89,9 @@ class Adaptation {
 
   // The forced level of a leaf box: walls and bodies.
   [[nodiscard]] int required_level(const tree::Box<D>& b) const;
+  // Whether the box, refined to the wall level, would hold no fluid (embedded walls): the
+  // wall level is not forced there.
+  [[nodiscard]] bool solid_at_wall_level(const tree::Box<D>& b) const;
   [[nodiscard]] const AdaptationOptions& options() const { return options_; }
   [[nodiscard]] double seconds() const { return seconds_; }  // wall-clock time spent adapting
   // Adaptations so far, and how many of them the bodies' motion forced before their interval.

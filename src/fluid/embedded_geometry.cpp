@@ -63,6 +63,37 @@ bool EmbeddedGeometry<D>::surely_solid(const tree::Box<D>& b) const {
 }
 
 template <int D>
+bool EmbeddedGeometry<D>::solid_at_level(const tree::Box<D>& b, int l) const {
+  const tree::TreeOptions<D>& o = tree_.options();
+  const double h = tree_.cell_size(l);
+  // The lattice of level l's corners in integers, as corner_values makes them, so that a
+  // point reads the same phi here as in the cut of the cells that share it.
+  std::array<std::int64_t, D> first{}, count{};
+  std::int64_t points = 1;
+  for (int d = 0; d < D; ++d) {
+    first[d] = std::llround((b.lo[d] - o.origin[d]) / h);
+    count[d] = std::llround((b.hi[d] - b.lo[d]) / h) + 1;
+    if (count[d] > 3) throw std::logic_error("EmbeddedGeometry::solid_at_level: a box more than two cells of the level wide");
+    points *= count[d];
+  }
+  for (std::int64_t i = 0; i < points; ++i) {
+    tree::Point<D> x{};
+    std::int64_t rest = i;
+    for (int d = 0; d < D; ++d) {
+      std::int64_t k = first[d] + rest % count[d];
+      rest /= count[d];
+      if (o.periodic[d]) {
+        const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << l;
+        k = ((k % cells) + cells) % cells;
+      }
+      x[d] = o.origin[d] + static_cast<double>(k) * h;
+    }
+    if (signed_distance(x) > 0.0) return false;
+  }
+  return true;
+}
+
+template <int D>
 std::array<double, D> EmbeddedGeometry<D>::wall_normal_area(Index c) const {
   const int l = tree_.level_of(c);
   const double area = std::pow(tree_.cell_size(l), D - 1);

@@ -58,6 +58,12 @@ class EmbeddedGeometry {
   // Whether the box b is surely all solid (no fluid, no wall): the brick's sides buried in a
   // solid are no walls of the flow.
   bool surely_solid(const tree::Box<D>& b) const;
+  // Whether refining the box b (a cell of the tree, of level >= l - 1) down to level l would
+  // make only cells without fluid: phi <= 0 at every corner of the cells of level l inside
+  // it, the cut's own convention (geometry/cut_cell.hpp), so this is exact, not a bound.
+  // The solid side of a wall then stays as coarse as the 2:1 balance allows.
+  bool solid_at_level(const tree::Box<D>& b, int l) const;
+
 
   std::span<const double> volume() const { return volume_; }
   const FaceField<D>& faces() const { return faces_; }

@@ -4,6 +4,8 @@
 // uninterrupted one does.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <span>
 #include <vector>
 
 #include "fluid/adaptation.hpp"
@@ -79,6 +81,40 @@ TEST(Adaptation, BrickWallsBuriedInASolidAreNotRefined) {
   }
   EXPECT_GT(on_embedded, 0);
   EXPECT_GT(on_buried, 0);
+}
+
+// The solid side of an embedded wall is not refined to the wall level: its cells there would
+// hold no fluid (every corner solid), so it stays one level coarser, as the 2:1 balance next
+// to the wall's fluid cells allows (the seed channel as an embedded box: a third of the
+// wall level's cells were such solid cells).
+TEST(Adaptation, TheSolidSideOfAnEmbeddedWallStaysCoarser) {
+  Channel c;
+  c.ns.set_solid(geometry::complement(geometry::box({-1.0, 0.25, -1.0}, {3.0, 0.75, 1.0})));
+  Adaptation<2> a(c.ns, {.min_level = 2, .wall_level = 6});
+  (void)a.refine_initial();
+  const std::span<const double> volume = c.ns.embedded()->volume();
+  int fluid_at_wall = 0, solid_at_wall = 0;
+  for (const tree::Index i : c.tree.leaves()) {
+    const tree::Box<2> b = c.tree.box(i);
+    const bool touches = std::abs(b.lo[1] - 0.75) < 1e-12 || std::abs(b.hi[1] - 0.25) < 1e-12 ||
+                         std::abs(b.hi[1] - 0.75) < 1e-12 || std::abs(b.lo[1] - 0.25) < 1e-12;
+    if (!touches || b.lo[0] < 0.1 || b.hi[0] > 1.9) continue;
+    const int l = c.tree.level_of(i);
+    if (volume[static_cast<std::size_t>(i)] > 0.0) {
+      EXPECT_EQ(l, 6) << "a fluid leaf on the wall";
+      ++fluid_at_wall;
+    } else {
+      EXPECT_EQ(l, 5) << "a solid leaf on the wall: as coarse as the balance allows";
+      ++solid_at_wall;
+    }
+  }
+  EXPECT_GT(fluid_at_wall, 0);
+  EXPECT_GT(solid_at_wall, 0);
+  // The rule's own boxes: a solid box of level 5 on the wall needs no more; a fluid one
+  // the wall level; a coarse box is never judged by a lattice of its own.
+  EXPECT_EQ(a.required_level({{1.0, 0.75}, {1.0 + 1.0 / 32, 0.75 + 1.0 / 32}}), 0);
+  EXPECT_EQ(a.required_level({{1.0, 0.75 - 1.0 / 32}, {1.0 + 1.0 / 32, 0.75}}), 6);
+  EXPECT_EQ(a.required_level({{1.0, 0.75}, {1.0 + 1.0 / 8, 0.75 + 1.0 / 8}}), 6);
 }
 
 TEST(Adaptation, InitialRefinementForcesWallsNotInflowOrOutflow) {
