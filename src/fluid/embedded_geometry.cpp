@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "fluid/multigrid/coefficients.hpp"
 #include "geometry/cut_cell.hpp"
 #include "tree/morton.hpp"
 
@@ -293,10 +294,14 @@ void EmbeddedGeometry<D>::collect_walls() {
       const auto s = static_cast<std::size_t>(c);
       if (wall_area_[s] > 0.0) cut_cells_[static_cast<std::size_t>(l)].push_back(c);
       bool open = volume_[s] == 1.0 && wall_area_[s] == 0.0;
+      bool closed = volume_[s] == 0.0 && wall_area_[s] == 0.0;
       const Index* row = lv.face_row(c);
-      for (int d = 0; d < D && open; ++d)
-        open = faces_[d][s] == 1.0 && faces_[d][static_cast<std::size_t>(row[2 * d + 1])] == 1.0;
-      uniform_[s] = open ? 1 : 0;
+      for (int d = 0; d < D; ++d) {
+        const double lower = faces_[d][s], upper = faces_[d][static_cast<std::size_t>(row[2 * d + 1])];
+        open = open && lower == 1.0 && upper == 1.0;
+        closed = closed && lower == 0.0 && upper == 0.0;
+      }
+      uniform_[s] = open ? kStencilUniform : closed ? kStencilEmpty : kStencilArrays;
     }
   }
 }

@@ -64,16 +64,16 @@ class EmbeddedGeometry {
   // The solid side of a wall then stays as coarse as the 2:1 balance allows.
   bool solid_at_level(const tree::Box<D>& b, int l) const;
 
-
   std::span<const double> volume() const { return volume_; }
   const FaceField<D>& faces() const { return faces_; }
   // The wall in active cell c: zero area outside cut cells.
   double wall_area(Index c) const { return wall_area_[static_cast<std::size_t>(c)]; }
   std::array<double, D> wall_normal_area(Index c) const;  // integral of n (into the solid)
   tree::Point<D> wall_centroid(Index c) const;
-  // Per cell slot, 1 for the active cells away from the walls: all fluid, every face open,
-  // no wall. The operators take their stencils as the brick's (coefficients.hpp,
-  // EmbeddedFaces).
+  // Per cell slot, kStencilUniform for the active cells away from the walls (all fluid, every
+  // face open, no wall: the operators take their stencils as the brick's), kStencilEmpty for
+  // those without fluid (every face closed, no wall: only their cell term), kStencilArrays
+  // for the rest (multigrid/coefficients.hpp, EmbeddedFaces).
   std::span<const std::uint8_t> uniform() const { return uniform_; }
   // The active cells of level l that the wall cuts (wall_area > 0), in index order.
   std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
@@ -96,7 +96,7 @@ class EmbeddedGeometry {
   // faces on the brick's upper sides, whose slots are boundary cells.
   std::array<std::vector<double>, D> upper_;
   std::vector<std::int8_t> side_;
-  std::vector<std::uint8_t> uniform_;  // +1 wholly fluid, -1 wholly solid (and so its children), 0 near the wall
+  std::vector<std::uint8_t> uniform_;  // kStencil* (multigrid/coefficients.hpp)
   std::vector<std::vector<Index>> cut_cells_;
 };
 

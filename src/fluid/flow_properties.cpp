@@ -157,7 +157,7 @@ void NavierStokes<D>::update_properties() {
   for (std::size_t c = 0; c < slots; ++c) {
     bool uniform = true;
     for (int k = 0; k < 2 * D; ++k) uniform = uniform && mu_faces_[c * 2 * D + static_cast<std::size_t>(k)] == mu_;
-    mu_uniform_[c] = uniform ? 1 : 0;
+    mu_uniform_[c] = uniform ? kStencilUniform : kStencilArrays;
   }
   if (embedded_) {
     // Embedded walls: the fractions times the face viscosities (the fractions' arrays hold
@@ -172,9 +172,13 @@ void NavierStokes<D>::update_properties() {
         const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
         embedded_mu_faces_[i] = viscous_faces_[i] * (mu_faces_[i] / mu_);
       }
-      embedded_mu_uniform_[c] = (mu_uniform_[c] && c < open_uniform.size() && open_uniform[c]) ? 1 : 0;
+      const std::uint8_t open = c < open_uniform.size() ? open_uniform[c] : kStencilArrays;
+      embedded_mu_uniform_[c] = open == kStencilEmpty ? kStencilEmpty
+                                : mu_uniform_[c] && open == kStencilUniform ? kStencilUniform
+                                                                            : kStencilArrays;
       // The uniform cells' stencil takes the constant cell term rho / (theta dt) too.
-      if (!uniform_density_ && relative_density_[c] != 1.0) embedded_mu_uniform_[c] = 0;
+      if (embedded_mu_uniform_[c] == kStencilUniform && !uniform_density_ && relative_density_[c] != 1.0)
+        embedded_mu_uniform_[c] = kStencilArrays;
     }
     cell_mu_.assign(mu.begin(), mu.end());
     tree_.restrict_and_exchange(cell_mu_);
@@ -216,7 +220,7 @@ void NavierStokes<D>::stabilise_band(double h) {
       stabilising_faces_[i] = stabilised_mu_faces_[i] - mu_faces_[i];
       uniform = uniform && stabilised_mu_faces_[i] == mu_;
     }
-    stabilised_uniform_[c] = uniform ? 1 : 0;
+    stabilised_uniform_[c] = uniform ? kStencilUniform : kStencilArrays;
   }
   if (!embedded_) return;
   // With embedded walls the same times the fluid fractions, and mu_s per cell slot for the
@@ -231,7 +235,8 @@ void NavierStokes<D>::stabilise_band(double h) {
       embedded_stabilised_faces_[i] = viscous_faces_[i] * (stabilised_mu_faces_[i] / mu_);
       embedded_stabilising_faces_[i] = viscous_faces_[i] * (stabilising_faces_[i] / mu_);
     }
-    embedded_stabilised_uniform_[c] = embedded_mu_uniform_[c] && stabilised_uniform_[c] ? 1 : 0;
+    const std::uint8_t flag = embedded_mu_uniform_[c];
+    embedded_stabilised_uniform_[c] = flag == kStencilUniform && !stabilised_uniform_[c] ? kStencilArrays : flag;
   }
   stabilised_cell_mu_ = std::move(mu_s);
   tree_.restrict_and_exchange(stabilised_cell_mu_);
@@ -251,13 +256,14 @@ void NavierStokes<D>::embedded_density() {
   embedded_alpha_uniform_.assign(slots, 0);
 #pragma omp parallel for schedule(static)
   for (std::size_t c = 0; c < slots; ++c) {
-    bool uniform = c < open_uniform.size() && open_uniform[c];
+    const std::uint8_t open = c < open_uniform.size() ? open_uniform[c] : kStencilArrays;
+    bool uniform = open == kStencilUniform;
     for (int k = 0; k < 2 * D; ++k) {
       const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
       embedded_alpha_faces_[i] = pressure_faces_[i] * options_.density * alpha_faces_[i];
       uniform = uniform && alpha_faces_[i] == inv_rho;
     }
-    embedded_alpha_uniform_[c] = uniform ? 1 : 0;
+    embedded_alpha_uniform_[c] = open == kStencilEmpty ? kStencilEmpty : uniform ? kStencilUniform : kStencilArrays;
   }
   // The viscous solves' cell term rho / (theta dt) per cell slot, relative to the density's;
   // a parent takes the mean of its children's (the mass it stands for).

@@ -43,18 +43,29 @@ struct ConstantCells {
   double at(Index /*cell*/) const { return value; }
 };
 
+// What a cell's stencil is, per cell slot (EmbeddedGeometry::uniform and the flags made
+// from it): the arrays' (near a wall or a property jump), the constant one, or none (a cell
+// without fluid: every face closed, no wall, only its own cell term).
+inline constexpr std::uint8_t kStencilArrays = 0;
+inline constexpr std::uint8_t kStencilUniform = 1;
+inline constexpr std::uint8_t kStencilEmpty = 2;
+
 // Embedded walls (multigrid/embedded_coefficients.hpp): the fluid's own coefficient `value`
 // on the uniform cells (every face open, no wall: EmbeddedGeometry::uniform), the array
 // elsewhere. The operator takes the uniform cells' stencil as constant (no array read), so
-// the cells away from the walls cost what the brick's cells cost.
+// the cells away from the walls cost what the brick's cells cost; a cell without fluid
+// costs its cell term only.
 template <int D>
 struct EmbeddedFaces {
   static constexpr bool kConstant = false;
   double value = 1.0;
   const double* data = nullptr;        // 2D values per cell slot
-  const std::uint8_t* full = nullptr;  // per cell slot: uniform
-  bool uniform(Index c) const { return full[c] != 0; }
-  double at(Index c, int face) const { return full[c] ? value : data[static_cast<std::size_t>(c) * (2 * D) + face]; }
+  const std::uint8_t* full = nullptr;  // per cell slot: kStencil*
+  bool uniform(Index c) const { return full[c] == kStencilUniform; }
+  bool empty(Index c) const { return full[c] == kStencilEmpty; }
+  double at(Index c, int face) const {
+    return full[c] == kStencilUniform ? value : data[static_cast<std::size_t>(c) * (2 * D) + face];
+  }
 };
 
 struct EmbeddedCells {
@@ -63,7 +74,7 @@ struct EmbeddedCells {
   const double* data = nullptr;
   const std::uint8_t* full = nullptr;
   double uniform_value() const { return value; }
-  double at(Index c) const { return full[c] ? value : data[c]; }
+  double at(Index c) const { return full[c] == kStencilUniform ? value : data[c]; }
 };
 
 // lambda = 0 on the cells with fluid and a pin on those without (embedded walls, see

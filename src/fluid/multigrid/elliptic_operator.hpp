@@ -188,7 +188,7 @@ class EllipticOperator {
 
  private:
   static constexpr bool kConstantDiagonal = Alpha::kConstant && Lambda::kConstant;
-  // Embedded walls: cells whose stencil is the fluid's constant one (EmbeddedFaces).
+  // Embedded walls: cells whose stencil is the fluid's constant one, or none (EmbeddedFaces).
   static constexpr bool kUniformCells = requires(const Alpha& alpha) { alpha.uniform(Index{}); };
   static_assert(!Walls::kActive || !Alpha::kConstant, "embedded walls need the face fractions in the face coefficients");
 
@@ -264,6 +264,8 @@ class EllipticOperator {
         for (int k = 0; k < F; ++k) sum += a[nb(k)];
         return alpha_.value * (sum - F * ac) * inv_h2 + lambda_.uniform_value() * ac;
       }
+      // The array path's own numbers (closed faces add +0), without reading them.
+      if (alpha_.empty(c)) return 0.0 + lambda_term(c, ac);
     }
     if constexpr (Alpha::kConstant) {
 #pragma GCC unroll 6
@@ -388,6 +390,7 @@ class EllipticOperator {
         for (int k = 0; k < F; ++k) off += da[nb(k)];
         return (dg.alpha * off - h2 * res[c]) * dg.inverse;
       }
+      if (alpha_.empty(c)) return (0.0 - h2 * res[c]) / (0.0 - h2 * lambda_.at(c));  // as below, off = diag = +0
     }
     if constexpr (Alpha::kConstant) {
       off = da[nb(0)];

@@ -30,6 +30,34 @@ constexpr double kFluidSide = 0.0;
 constexpr int kBandRings = 2;
 // The net wall normal, relative to the wall's area, below which a cell has no wall flux.
 constexpr double kNoNormal = 1e-9;
+// How close to a grid axis a wall's normal, and to the line of a cell's centre its centroid
+// (in cells), must be for the fit along that line (normal_column).
+constexpr double kAligned = 1e-12;
+
+// A wall along a grid axis whose centroid lies on the line of c's centre: the points of the
+// fit on that line (c and its neighbour into the fluid), else none. The fit's other points
+// then only average the same normal gradient over the columns beside c (by symmetry they
+// fit the tangential gradient apart), a tangential smoothing of O(h^2) that costs 17 reads
+// instead of 1 per cut cell; on the line the fit is what Johansen & Colella's and Basilisk's
+// normal probes read for such a wall (exact for linear a either way).
+template <int D>
+std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>> normal_column(
+    const std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>>& points, const Eigen::Matrix<double, D, 1>& unit,
+    const Eigen::Matrix<double, D, 1>& wall_offset) {
+  int axis = -1;
+  for (int d = 0; d < D; ++d)
+    if (std::abs(unit[d]) > 1.0 - kAligned) axis = d;
+  if (axis < 0) return {};
+  for (int d = 0; d < D; ++d)
+    if (d != axis && std::abs(wall_offset[d]) > kAligned) return {};
+  std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>> column;
+  for (const auto& p : points) {
+    bool on_line = true;
+    for (int d = 0; d < D; ++d) on_line = on_line && (d == axis || std::abs(p.second[d]) <= kAligned);
+    if (on_line) column.push_back(p);
+  }
+  return column;
+}
 
 }  // namespace
 
@@ -70,7 +98,6 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
         for (int d = 0; d < D; ++d) y[d] = tree::kOffsets<D>[static_cast<std::size_t>(s)][static_cast<std::size_t>(d)] - xw[d];
         if (y.dot(into_fluid) >= kFluidSide) points.push_back({k, y});
       }
-      Mat m = Mat::Zero();
       // Weighted by the inverse square of each point's distance from the wall's plane: the
       // nearest cells say most about the gradient there (a farther point adds the flow's
       // curvature across the wall, times its distance, to it).
@@ -79,16 +106,33 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
         const double across = y.dot(unit);
         return 1.0 / (across * across + kNearWeight);
       };
-      for (const auto& [k, y] : points) m += omega(y) * y * y.transpose();
-      const Eigen::SelfAdjointEigenSolver<Mat> spread(m);
       const auto r = static_cast<std::int32_t>(self_.size());
       row_[static_cast<std::size_t>(c)] = r;
       cut_cells_[static_cast<std::size_t>(l)].push_back(c);
+      // Each point's weight is omega(y) (q . y) / h^D: the fit's q = M^-1 N / h, or on a
+      // column grad a . N = |N| sum_k omega_k s_k (a_k - a_wall) / (h sum_k omega_k s_k^2),
+      // s_k = y_k . unit.
+      std::vector<std::pair<Index, Vec>> used = normal_column(points, unit, xw);
+      Vec q = Vec::Zero();
+      if (used.size() >= 2) {
+        double normal = 0.0;
+        for (const auto& [k, y] : used) normal += omega(y) * y.dot(unit) * y.dot(unit);
+        q = unit * (n.norm() / (normal * h));
+        ++columns_;
+      } else {
+        Mat m = Mat::Zero();
+        for (const auto& [k, y] : points) m += omega(y) * y * y.transpose();
+        const Eigen::SelfAdjointEigenSolver<Mat> spread(m, Eigen::EigenvaluesOnly);
+        if (spread.eigenvalues().minCoeff() >= kMinSpread) {
+          q = m.ldlt().solve(n) / h;
+          used = std::move(points);
+        } else {
+          used.clear();
+        }
+      }
       double self = 0.0, total = 0.0;
-      if (spread.eigenvalues().minCoeff() >= kMinSpread) {
-        // grad a . N = N^T M^-1 sum_k y_k (a_k - a_wall) / h.
-        const Vec q = m.ldlt().solve(n) / h;
-        for (const auto& [k, y] : points) {
+      if (!used.empty()) {
+        for (const auto& [k, y] : used) {
           const double w = omega(y) * q.dot(y) * inv_volume;
           total += w;
           if (k == c) {

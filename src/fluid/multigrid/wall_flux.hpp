@@ -14,7 +14,9 @@
 // Colella 1998 fit the same
 // gradient along the normal; Basilisk's embed.h interpolates along it): exact for linear a,
 // so with N the faces' imbalance (the divergence theorem) every cut cell's fluxes add up for
-// linear fields, and second order overall. The fit is a fixed linear stencil per cut cell,
+// linear fields, and second order overall. A wall along a grid axis whose centroid lies on
+// the line of the cell's centre (a channel's planar walls) is fitted on that line only: the
+// cell and its neighbour into the fluid. The fit is a fixed linear stencil per cut cell,
 // built once per geometry: grad a(x_w) . N = sum_k w_k (a_k - a_wall).
 //
 // The values are read at the cells' centres, also where a centre lies in the solid (the
@@ -69,6 +71,9 @@ class WallFlux {
   // one-sided difference a_c - a_wall over the distance from the centre to the wall plane
   // (at least h/2). None in a geometry resolved by a few cells.
   std::int64_t fallbacks() const { return fallbacks_; }
+  // Cut cells whose wall lies along a grid axis, on the line of their centre: their fit
+  // takes the two cells on that line only (wall_flux.cpp, normal_column).
+  std::int64_t columns() const { return columns_; }
 
  private:
   std::vector<std::int32_t> row_;  // per cell slot: its stencil, or -1
@@ -80,6 +85,7 @@ class WallFlux {
   std::vector<std::vector<Index>> band_;
   bool has_band_ = false;
   std::int64_t fallbacks_ = 0;
+  std::int64_t columns_ = 0;
 };
 
 // The operator's view of the walls: no walls (the brick only; nothing is read).
