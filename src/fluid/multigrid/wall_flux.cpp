@@ -44,12 +44,11 @@ template <int D>
 std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>> normal_column(
     const std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>>& points, const Eigen::Matrix<double, D, 1>& unit,
     const Eigen::Matrix<double, D, 1>& wall_offset) {
-  int axis = -1;
+  int axis = 0;
+  for (int d = 1; d < D; ++d)
+    if (std::abs(unit[d]) > std::abs(unit[axis])) axis = d;
   for (int d = 0; d < D; ++d)
-    if (std::abs(unit[d]) > 1.0 - kAligned) axis = d;
-  if (axis < 0) return {};
-  for (int d = 0; d < D; ++d)
-    if (d != axis && std::abs(wall_offset[d]) > kAligned) return {};
+    if (d != axis && (std::abs(unit[d]) > kAligned || std::abs(wall_offset[d]) > kAligned)) return {};
   std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>> column;
   for (const auto& p : points) {
     bool on_line = true;
