@@ -67,8 +67,8 @@ template <int D>
 bool EmbeddedGeometry<D>::solid_at_level(const tree::Box<D>& b, int l) const {
   const tree::TreeOptions<D>& o = tree_.options();
   const double h = tree_.cell_size(l);
-  // The lattice of level l's corners in integers, as corner_values makes them, so that a
-  // point reads the same phi here as in the cut of the cells that share it.
+  // The lattice of level l's corners in integers (corner_phi, as the cuts read them), so
+  // that a point reads the same phi here as in the cut of the cells that share it.
   std::array<std::int64_t, D> first{}, count{};
   std::int64_t points = 1;
   for (int d = 0; d < D; ++d) {
@@ -78,18 +78,13 @@ bool EmbeddedGeometry<D>::solid_at_level(const tree::Box<D>& b, int l) const {
     points *= count[d];
   }
   for (std::int64_t i = 0; i < points; ++i) {
-    tree::Point<D> x{};
+    std::array<std::int64_t, D> k{};
     std::int64_t rest = i;
     for (int d = 0; d < D; ++d) {
-      std::int64_t k = first[d] + rest % count[d];
+      k[d] = first[d] + rest % count[d];
       rest /= count[d];
-      if (o.periodic[d]) {
-        const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << l;
-        k = ((k % cells) + cells) % cells;
-      }
-      x[d] = o.origin[d] + static_cast<double>(k) * h;
     }
-    if (signed_distance(x) > 0.0) return false;
+    if (corner_phi(k, l) > 0.0) return false;
   }
   return true;
 }
@@ -151,24 +146,29 @@ void EmbeddedGeometry<D>::rebuild() {
 
 template <int D>
 std::array<double, (1 << D)> EmbeddedGeometry<D>::corner_values(Index c, int l) const {
-  const tree::Level<D>& lv = tree_.level(l);
-  const tree::TreeOptions<D>& o = tree_.options();
-  const double h = tree_.cell_size(l);
-  const tree::Coords<D> ijk = slot_coords<D>(lv, c);
+  const tree::Coords<D> ijk = slot_coords<D>(tree_.level(l), c);
   std::array<double, (1 << D)> phi{};
   for (int b = 0; b < (1 << D); ++b) {
-    tree::Point<D> x{};
-    for (int d = 0; d < D; ++d) {
-      std::int64_t k = static_cast<std::int64_t>(ijk[d]) + ((b >> d) & 1);
-      if (o.periodic[d]) {  // wrapped in integers: both sides of the seam get the same point
-        const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << l;
-        k = ((k % cells) + cells) % cells;
-      }
-      x[d] = o.origin[d] + static_cast<double>(k) * h;
-    }
-    phi[static_cast<std::size_t>(b)] = signed_distance(x);
+    std::array<std::int64_t, D> k{};
+    for (int d = 0; d < D; ++d) k[d] = static_cast<std::int64_t>(ijk[d]) + ((b >> d) & 1);
+    phi[static_cast<std::size_t>(b)] = corner_phi(k, l);
   }
   return phi;
+}
+
+template <int D>
+double EmbeddedGeometry<D>::corner_phi(std::array<std::int64_t, D> k, int l) const {
+  const tree::TreeOptions<D>& o = tree_.options();
+  const double h = tree_.cell_size(l);
+  tree::Point<D> x{};
+  for (int d = 0; d < D; ++d) {
+    if (o.periodic[d]) {  // wrapped in integers: both sides of the seam get the same point
+      const std::int64_t cells = static_cast<std::int64_t>(o.roots[d]) << l;
+      k[d] = ((k[d] % cells) + cells) % cells;
+    }
+    x[d] = o.origin[d] + static_cast<double>(k[d]) * h;
+  }
+  return signed_distance(x);
 }
 
 template <int D>

@@ -50,6 +50,9 @@ class EmbeddedGeometry {
   // phi at the 2^D corners of cell c of level l (corner b: coordinate d = bit d of b), wrapped
   // along periodic directions: what the cut of c is made from.
   std::array<double, (1 << D)> corner_values(Index c, int l) const;
+  // phi at corner k (integer coordinates on level l's lattice), wrapped along periodic
+  // directions: the one place corners are made, so that every reader sees the same value.
+  double corner_phi(std::array<std::int64_t, D> k, int l) const;
   // phi at a point of the brick (2D cases: the section z = 0 of the solid); > 0 in the fluid.
   double signed_distance(const tree::Point<D>& x) const;
   // Whether the box b, grown by `margin`, may reach the wall (false when it is surely all

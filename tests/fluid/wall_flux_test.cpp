@@ -55,7 +55,6 @@ Count linear_flux_errors(const Tree<3>& t, const geometry::SolidPtr& solid) {
       ++n.cut;
     }
   }
-  n.cut_all = 0;
   for (int l = 0; l <= t.depth(); ++l) n.cut_all += static_cast<std::int64_t>(walls.cut_cells(l).size());
   n.columns = walls.columns();
   return n;
