@@ -420,6 +420,7 @@ class NavierStokes {
   geometry::SolidPtr solid_;
   std::unique_ptr<EmbeddedGeometry<D>> embedded_;
   std::unique_ptr<WallFlux<D>> wall_flux_;
+  tree::InjectedHalos injected_halos_;  // the solves' (EmbeddedFaces::injected)
   std::vector<double> pressure_faces_, pressure_pins_, viscous_faces_, viscous_cells_;
   double viscous_lambda_ = 0.0;  // the lambda viscous_cells_ was made for
   // Embedded walls with a viscosity that varies (update_properties): the fractions times the

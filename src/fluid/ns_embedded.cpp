@@ -39,6 +39,13 @@ void NavierStokes<D>::rebuild_embedded() {
   embedded_face_coefficients<D>(tree_, *embedded_, 1.0 / options_.density, pressure_faces_);
   embedded_cell_coefficients<D>(tree_, *embedded_, 0.0, pressure_pins_);
   embedded_face_coefficients<D>(tree_, *embedded_, mu_, viscous_faces_);
+  // The halos of the cells without fluid: the solves' syncs inject them (a quadratic
+  // prolongation each, a twelfth of an embedded step where the solid side is coarse).
+  {
+    std::vector<std::uint8_t> closed(embedded_->uniform().size());
+    for (std::size_t c = 0; c < closed.size(); ++c) closed[c] = embedded_->uniform()[c] == kStencilEmpty;
+    injected_halos_ = tree_.injected_halos(closed);
+  }
   viscous_cells_.clear();  // they depend on dt: made by the first viscous solve
   for (auto& w : wall_velocity_) w.clear();
   if (solid_->moves()) {
@@ -123,7 +130,8 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
     tree_.for_each_leaf([&](Index c) { rhs_[c] += div_[c]; });
   }
   const EllipticOperator<D, EmbeddedFaces<D>, EmbeddedCells, WallTerms<D>> op(
-      tree_, {mu_, solved.faces, solved.uniform}, {lambda, viscous_cells_.data(), solved.uniform}, conditions_.velocity[d],
+      tree_, {mu_, solved.faces, solved.uniform, &injected_halos_}, {lambda, viscous_cells_.data(), solved.uniform},
+      conditions_.velocity[d],
       solved.walls);
   MultigridOptions opt = with_krylov_on_growth(options_.viscous);
   opt.tolerance *= (properties_ ? rho_min_ : options_.density) / (theta * dt);  // as variable_viscous_solve
@@ -146,7 +154,7 @@ MultigridStats NavierStokes<D>::embedded_projection(FaceField<D>& uf, std::span<
   const EllipticOperator<D, EmbeddedFaces<D>, PinnedCells> op(
       tree_,
       {1.0 / options_.density, density_varies ? embedded_alpha_faces_.data() : pressure_faces_.data(),
-       density_varies ? embedded_alpha_uniform_.data() : embedded_->uniform().data()},
+       density_varies ? embedded_alpha_uniform_.data() : embedded_->uniform().data(), &injected_halos_},
       {pressure_pins_.data()}, conditions_.pressure);
   const MultigridStats s = solve(op, p, rhs_, mg_, with_krylov_on_growth(opt));  // leaves p synced
   const double inv_rho = 1.0 / options_.density;

@@ -58,6 +58,11 @@ inline constexpr Index kParallelMin = 4096;
 // fields: adapt() only resizes them.
 enum class Prolongation : unsigned char { linear, limited, quadratic, none };
 
+// Per level, one flag per halo group: the groups a fill gives their coarse leaf's value
+// (injection) instead of a prolongation, because no stencil that reads them weighs them
+// (Tree::injected_halos).
+using InjectedHalos = std::vector<std::vector<std::uint8_t>>;
+
 template <int D>
 struct FieldSpec {
   std::string name;
@@ -379,8 +384,10 @@ class Tree {
   void restrict_level(int l, std::span<double> v) const;
   // Halo cells of level l get values prolonged from their coarse leaf (level l-1): all of
   // them, or only the groups in Level::halo_read (enough for face stencils).
+  // With `injected`, the flagged groups of face_read take their coarse leaf's value.
   enum class HaloCells : unsigned char { all, face_read };
-  void fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which = HaloCells::all) const;
+  void fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which = HaloCells::all,
+                 const InjectedHalos* injected = nullptr) const;
   // Active cells of level l get values prolonged from their parents (level l-1), whose
   // face neighbours must hold valid values (the multigrid's coarse-to-fine step).
   void prolong_level(int l, std::span<double> v, Prolongation p) const;
@@ -411,7 +418,19 @@ class Tree {
   // residual): parents are restricted only on the levels a halo prolongation reads (none
   // on a uniform tree) and only the halo groups in Level::halo_read are filled; the other
   // parents and halo cells keep stale values.
-  void sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const;
+  void sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p,
+                           const InjectedHalos* injected = nullptr) const;
+  // The halo groups of the coarse leaves flagged in `closed` (per cell slot) that no
+  // prolongation to the next level reads (the 3^D block around a parent of its active or
+  // halo groups). For an operator whose face coefficients vanish on every face of those
+  // leaves (the solid side of an embedded wall), their halo values are read with weight 0:
+  // a sync for it may inject them (the quadratic prolongation is most of a sync's cost).
+  // Valid until the tree is rebuilt.
+  InjectedHalos injected_halos(std::span<const std::uint8_t> closed) const;
+  // After sync_leaf_neighbors with `injected`: those groups prolonged by p and the boundary
+  // cells refilled, so that v holds what sync_leaf_neighbors without them gives.
+  void refill_injected_halos(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p,
+                             const InjectedHalos& injected) const;
 
   // --- adaptation
   // Normalised wavelet error max_f |v_f - prolongation from the parent| / tol_f for every
@@ -461,6 +480,9 @@ class Tree {
   // Checked builds, N ranks: the halo groups of level l that one rank's fill would fill and
   // this rank's held_halo_ drops get NaN, so that a stencil reading one shows in the tests.
   void poison_dropped_halos(int l, std::span<double> v, HaloCells which) const;
+  // fill_halo's loop: with `refill`, only the injected groups, prolonged.
+  void fill_halo_groups(int l, std::span<double> v, Prolongation p, HaloCells which, const InjectedHalos* injected,
+                        bool refill) const;
   // Level::halo_read of every level, from the deepest up (a level's list depends on the
   // next one's).
   void collect_halo_read();

@@ -95,7 +95,13 @@ void Tree<D>::poison_dropped_halos(int l, std::span<double> v, HaloCells which) 
 }
 
 template <int D>
-void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which) const {
+void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells which, const InjectedHalos* injected) const {
+  fill_halo_groups(l, v, p, which, injected, false);
+}
+
+template <int D>
+void Tree<D>::fill_halo_groups(int l, std::span<double> v, Prolongation p, HaloCells which, const InjectedHalos* injected,
+                               bool refill) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::fill_halo: the field does not have num_cells entries");
   constexpr int C = kChildren<D>;
   if (l <= 0 || l > depth_) return;
@@ -104,17 +110,33 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells wh
   // One rank: every group, or Level::halo_read; N ranks: those whose values reach owned
   // cells (Tree::collect_held_halos).
   if constexpr (kAssertions)
-    if (dist_) poison_dropped_halos(l, v, which);
+    if (dist_ && !refill) poison_dropped_halos(l, v, which);
   const bool all = which == HaloCells::all && !dist_;
   const std::vector<Index>& list =
       dist_ ? held_halo_[static_cast<std::size_t>(which)][static_cast<std::size_t>(l)] : lv.halo_read;
   const Index groups = all ? lv.n_halo / C : static_cast<Index>(list.size());
   const Index* listed = list.data();
   const Index first = lv.halo_begin();
+  const std::uint8_t* inject = nullptr;
+  if (injected && which == HaloCells::face_read && static_cast<std::size_t>(l) < injected->size() &&
+      !(*injected)[static_cast<std::size_t>(l)].empty()) {
+    CAPSFLOW_ASSERT((*injected)[static_cast<std::size_t>(l)].size() == static_cast<std::size_t>(lv.n_halo / C),
+                    "Tree::fill_halo: the injected halos were made for another tree");
+    inject = (*injected)[static_cast<std::size_t>(l)].data();
+  }
+  if (refill && !inject) return;
+  // Whether group g is left to the caller's choice: injected now, or (refill) not at all.
+  auto injected_now = [inject, refill, first, &lv, v](Index g) {
+    const bool flagged = inject && inject[g];
+    if (refill) return !flagged;
+    if (flagged) std::fill_n(v.data() + first + g * C, C, v[lv.halo_parent[g]]);
+    return flagged;
+  };
   if (p == Prolongation::quadratic) {
 #pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
     for (Index i = 0; i < groups; ++i) {
       const Index g = all ? i : listed[i];
+      if (injected_now(g)) continue;
       double block[ipow(3, D)];
       block_of<D>(coarse, lv.halo_parent[g], v, block);
       quadratic_children<D>(block, v.data() + first + g * C);
@@ -124,8 +146,46 @@ void Tree<D>::fill_halo(int l, std::span<double> v, Prolongation p, HaloCells wh
 #pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
   for (Index i = 0; i < groups; ++i) {
     const Index g = all ? i : listed[i];
+    if (injected_now(g)) continue;
     const auto s = slopes_of<D>(coarse, lv.halo_parent[g], v, p);
     for (int k = 0; k < C; ++k) v[first + g * C + k] = s.child(k);
+  }
+}
+
+template <int D>
+InjectedHalos Tree<D>::injected_halos(std::span<const std::uint8_t> closed) const {
+  CAPSFLOW_ASSERT(closed.size() == static_cast<std::size_t>(num_cells_), "Tree::injected_halos: the flags do not have num_cells entries");
+  constexpr int C = kChildren<D>;
+  InjectedHalos out(static_cast<std::size_t>(depth_ + 1));
+  for (int l = 1; l <= depth_; ++l) {
+    const Level<D>& lv = levels_[l];
+    std::vector<std::uint8_t>& flags = out[static_cast<std::size_t>(l)];
+    flags.resize(static_cast<std::size_t>(lv.n_halo / C));
+    for (Index g = 0; g < lv.n_halo / C; ++g) flags[static_cast<std::size_t>(g)] = closed[static_cast<std::size_t>(lv.halo_parent[g])] != 0;
+    if (l == depth_) continue;
+    // A prolongation to level l + 1 reads the 3^D block of its coarse cell (a boundary cell
+    // stands for its source): those halo groups keep their prolonged values.
+    auto keep_block = [&](Index parent) {
+      for (int s = 0; s < kStencil<D>; ++s) {
+        Index c = lv.neighbor(parent, s);
+        while (c >= lv.boundary_begin() && c < lv.boundary_end()) c = lv.boundary_source[c - lv.boundary_begin()];
+        if (c >= lv.halo_begin() && c < lv.halo_end()) flags[static_cast<std::size_t>((c - lv.halo_begin()) / C)] = 0;
+      }
+    };
+    const Level<D>& next = levels_[l + 1];
+    for (Index g = 0; g < next.n_active / C; ++g) keep_block(next.group_parent[g]);
+    for (Index g = 0; g < next.n_halo / C; ++g) keep_block(next.halo_parent[g]);
+  }
+  return out;
+}
+
+template <int D>
+void Tree<D>::refill_injected_halos(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p,
+                                    const InjectedHalos& injected) const {
+  // Level by level as the sync: a level's boundary cells may stand for its halo cells.
+  for (int l = 1; l <= depth_; ++l) {
+    fill_halo_groups(l, v, p, HaloCells::face_read, &injected, true);
+    fill_boundary_cells(l, v, bc);
   }
 }
 
@@ -273,7 +333,8 @@ void Tree<D>::fill_outside_leaves(std::span<double> v, const BoundaryConditions<
 }
 
 template <int D>
-void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p) const {
+void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p,
+                                  const InjectedHalos* injected) const {
   CAPSFLOW_ASSERT(v.size() == static_cast<std::size_t>(num_cells_), "Tree::sync_leaf_neighbors: the field does not have num_cells entries");
   // A halo cell of level l is prolonged from level l - 1, whose parents average the
   // levels below: restrict from the deepest level up to the coarsest one a halo reads.
@@ -294,7 +355,7 @@ void Tree<D>::sync_leaf_neighbors(std::span<double> v, const BoundaryConditions<
     }
   }
   for (int l = 0; l <= depth_; ++l) {
-    fill_halo(l, v, p, HaloCells::face_read);
+    fill_halo(l, v, p, HaloCells::face_read, injected);
     fill_boundary_cells(l, v, bc);
   }
 }
@@ -367,7 +428,8 @@ void Tree<D>::transfer_fields(const std::vector<Level<D>>& next, int new_depth, 
 
 template FieldId Tree<2>::add_field(FieldSpec<2>);
 template void Tree<2>::restrict_level(int, std::span<double>) const;
-template void Tree<2>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
+template void Tree<2>::fill_halo(int, std::span<double>, Prolongation, HaloCells, const InjectedHalos*) const;
+template void Tree<2>::fill_halo_groups(int, std::span<double>, Prolongation, HaloCells, const InjectedHalos*, bool) const;
 template void Tree<2>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
 template void Tree<2>::poison_dropped_boundary_cells(int, std::span<double>) const;
 template void Tree<2>::prolong_level(int, std::span<double>, Prolongation) const;
@@ -380,12 +442,15 @@ template void Tree<2>::sync(Distribution::Fields, std::span<const BoundaryCondit
 template void Tree<2>::restrict_and_exchange(Distribution::Fields, int) const;
 template void Tree<2>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<2>::exchange_restricted(std::span<double>) const;
-template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation) const;
+template void Tree<2>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<2>&, Prolongation, const InjectedHalos*) const;
+template InjectedHalos Tree<2>::injected_halos(std::span<const std::uint8_t>) const;
+template void Tree<2>::refill_injected_halos(std::span<double>, const BoundaryConditions<2>&, Prolongation, const InjectedHalos&) const;
 template void Tree<2>::child_values(Index, FieldId, double*) const;
 template void Tree<2>::transfer_fields(const std::vector<Level<2>>&, int, Index);
 template FieldId Tree<3>::add_field(FieldSpec<3>);
 template void Tree<3>::restrict_level(int, std::span<double>) const;
-template void Tree<3>::fill_halo(int, std::span<double>, Prolongation, HaloCells) const;
+template void Tree<3>::fill_halo(int, std::span<double>, Prolongation, HaloCells, const InjectedHalos*) const;
+template void Tree<3>::fill_halo_groups(int, std::span<double>, Prolongation, HaloCells, const InjectedHalos*, bool) const;
 template void Tree<3>::poison_dropped_halos(int, std::span<double>, HaloCells) const;
 template void Tree<3>::poison_dropped_boundary_cells(int, std::span<double>) const;
 template void Tree<3>::prolong_level(int, std::span<double>, Prolongation) const;
@@ -398,7 +463,9 @@ template void Tree<3>::sync(Distribution::Fields, std::span<const BoundaryCondit
 template void Tree<3>::restrict_and_exchange(Distribution::Fields, int) const;
 template void Tree<3>::restrict_and_exchange(std::span<double>, int) const;
 template void Tree<3>::exchange_restricted(std::span<double>) const;
-template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation) const;
+template void Tree<3>::sync_leaf_neighbors(std::span<double>, const BoundaryConditions<3>&, Prolongation, const InjectedHalos*) const;
+template InjectedHalos Tree<3>::injected_halos(std::span<const std::uint8_t>) const;
+template void Tree<3>::refill_injected_halos(std::span<double>, const BoundaryConditions<3>&, Prolongation, const InjectedHalos&) const;
 template void Tree<3>::child_values(Index, FieldId, double*) const;
 template void Tree<3>::transfer_fields(const std::vector<Level<3>>&, int, Index);
 

@@ -104,6 +104,14 @@ TEST(EmbeddedOperator, CellsWithoutFluidCostTheirCellTermAndChangeNoNumber) {
       ++empty;
     }
   ASSERT_GT(empty, 0);
+  // Some of them next to a finer region: the operator's flux-matching path.
+  std::int64_t empty_next_to_finer = 0;
+  for (int l = 0; l <= t.depth(); ++l) {
+    const tree::Level<3>& lv = t.level(l);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
+      if (lv.leaf[c - lv.base] == tree::Level<3>::kLeafNextToFiner && g.uniform()[c] == kStencilEmpty) ++empty_next_to_finer;
+  }
+  ASSERT_GT(empty_next_to_finer, 0);
   using Op = EllipticOperator<3, EmbeddedFaces<3>, EmbeddedCells, WallTerms<3>>;
   const auto bc = tree::BoundaryConditions<3>::all(tree::BcKind::dirichlet);
   const Op fast(t, {0.7, alpha.data(), g.uniform().data()}, {-50.0, lambda.data(), g.uniform().data()}, bc, {&walls, 0.7});
@@ -134,6 +142,99 @@ TEST(EmbeddedOperator, CellsWithoutFluidCostTheirCellTermAndChangeNoNumber) {
   EXPECT_TRUE(a.converged);
   EXPECT_EQ(a.cycles, c.cycles);
   EXPECT_EQ(s_fast, s_slow);
+}
+
+// The halos of the cells without fluid injected in the solves' syncs (Tree::injected_halos):
+// the same residuals, cycles and solutions, to the bit, for the viscous kind of operator
+// and the projection's (pinned, singular), by cycles and by the Krylov iteration; after a
+// solve every cell holds what it held without injection.
+TEST(EmbeddedOperator, InjectedSolidHalosChangeNoNumber) {
+  // Walls refined to level 4 on their fluid side, the solid kept coarse (level 3 next to
+  // them), and a level-5 patch against the wall on a face of the level-4 cells: the
+  // prolongations to it read level-4 halos of solid cells, which keep their prolonged values.
+  const auto solid = geometry::complement(geometry::box({-1.0, 0.2345, 0.25}, {2.0, 0.8125, 0.75}));
+  const Eigen::Vector3d patch(0.5, 0.75, 0.5);
+  tree::TreeOptions<3> o;
+  o.roots.fill(1);
+  o.max_level = 5;
+  Tree<3> t(o);
+  t.refine_to([&](const tree::Box<3>& b) {
+    Eigen::Vector3d centre;
+    double half = 0.0;
+    for (int d = 0; d < 3; ++d) {
+      centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
+      half += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
+    }
+    half = std::sqrt(half);
+    const double phi = solid->signed_distance(centre);
+    if (phi <= 0.0) return 2;
+    if ((centre - patch).norm() <= 0.08 + half) return 5;
+    return phi <= half + 0.125 ? 4 : 2;
+  });
+  const EmbeddedGeometry<3> g(t, solid);
+  const WallFlux<3> walls(t, g, WallFlux<3>::Band::none);
+  std::vector<std::uint8_t> closed(g.uniform().size());
+  for (std::size_t c = 0; c < closed.size(); ++c) closed[c] = g.uniform()[c] == kStencilEmpty;
+  const tree::InjectedHalos injected = t.injected_halos(closed);
+  // Some groups injected, and some of closed cells kept for a prolongation that reads them.
+  std::int64_t flagged = 0, kept = 0;
+  for (int l = 1; l <= t.depth(); ++l)
+    for (std::size_t k = 0; k < injected[static_cast<std::size_t>(l)].size(); ++k) {
+      flagged += injected[static_cast<std::size_t>(l)][k];
+      kept += !injected[static_cast<std::size_t>(l)][k] && closed[static_cast<std::size_t>(t.level(l).halo_parent[k])];
+    }
+  ASSERT_GT(flagged, 0);
+  ASSERT_GT(kept, 0);
+  std::vector<double> alpha, lambda, pins;
+  embedded_face_coefficients<3>(t, g, 0.7, alpha);
+  embedded_cell_coefficients<3>(t, g, -50.0, lambda);
+  embedded_cell_coefficients<3>(t, g, 0.0, pins);
+  std::vector<double> u(static_cast<std::size_t>(t.num_cells()), 0.0), b(u.size(), 0.0), b0(u.size(), 0.0);
+  for (const Index c : t.leaves()) {
+    const tree::Point<3> x = t.center(c);
+    u[static_cast<std::size_t>(c)] = std::sin(3.0 * x[0]) + x[1] * x[2];
+    b[static_cast<std::size_t>(c)] = std::cos(2.0 * x[1]);
+  }
+  // The projection's right-hand side: zero mean over the leaves, none without fluid.
+  double mean = 0.0, volume = 0.0;
+  for (const Index c : t.leaves()) {
+    const double v = std::pow(t.cell_size(t.level_of(c)), 3) * g.volume()[static_cast<std::size_t>(c)];
+    mean += v * b[static_cast<std::size_t>(c)];
+    volume += v;
+  }
+  for (const Index c : t.leaves())
+    b0[static_cast<std::size_t>(c)] = g.volume()[static_cast<std::size_t>(c)] > 0.0 ? b[static_cast<std::size_t>(c)] - mean / volume : 0.0;
+  auto compare = [&](const auto& with, const auto& without, std::span<const double> rhs) {
+    std::vector<double> u1 = u, u2 = u;
+    t.sync_leaf_neighbors(u1, with.bc(), tree::Prolongation::quadratic, with.injected_halos());
+    t.sync_leaf_neighbors(u2, without.bc(), tree::Prolongation::quadratic, without.injected_halos());
+    EXPECT_NE(u1, u2);  // the injection took effect
+    std::vector<double> r1(u.size(), 0.0), r2(u.size(), 0.0);
+    EXPECT_EQ(with.residual(u1, rhs, r1), without.residual(u2, rhs, r2));
+    EXPECT_EQ(r1, r2);
+    t.refill_injected_halos(u1, with.bc(), tree::Prolongation::quadratic, *with.injected_halos());
+    EXPECT_EQ(u1, u2);
+    for (const bool krylov : {false, true}) {
+      std::vector<double> s1(u.size(), 0.0), s2(u.size(), 0.0);
+      MultigridWorkspace w1, w2;
+      const MultigridOptions opt{.tolerance = 1e-9, .krylov = krylov, .wall_band_passes = 0};
+      const MultigridStats a = solve(with, s1, rhs, w1, opt);
+      const MultigridStats c = solve(without, s2, rhs, w2, opt);
+      EXPECT_TRUE(a.converged) << "krylov " << krylov;
+      EXPECT_EQ(a.residuals, c.residuals) << "krylov " << krylov;
+      EXPECT_EQ(s1, s2) << "krylov " << krylov;
+    }
+  };
+  const auto dirichlet = tree::BoundaryConditions<3>::all(tree::BcKind::dirichlet);
+  using Viscous = EllipticOperator<3, EmbeddedFaces<3>, EmbeddedCells, WallTerms<3>>;
+  compare(Viscous(t, {0.7, alpha.data(), g.uniform().data(), &injected}, {-50.0, lambda.data(), g.uniform().data()}, dirichlet,
+                  {&walls, 0.7}),
+          Viscous(t, {0.7, alpha.data(), g.uniform().data()}, {-50.0, lambda.data(), g.uniform().data()}, dirichlet, {&walls, 0.7}),
+          b);
+  const auto neumann = tree::BoundaryConditions<3>::all(tree::BcKind::neumann);
+  using Pressure = EllipticOperator<3, EmbeddedFaces<3>, PinnedCells>;
+  compare(Pressure(t, {1.0, alpha.data(), g.uniform().data(), &injected}, {pins.data()}, neumann),
+          Pressure(t, {1.0, alpha.data(), g.uniform().data()}, {pins.data()}, neumann), b0);
 }
 
 }  // namespace

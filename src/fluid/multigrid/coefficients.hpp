@@ -61,6 +61,9 @@ struct EmbeddedFaces {
   double value = 1.0;
   const double* data = nullptr;        // 2D values per cell slot
   const std::uint8_t* full = nullptr;  // per cell slot: kStencil*
+  // The halo groups of cells without fluid that no prolongation reads (their faces are
+  // closed: every stencil weighs them by 0), filled by injection in the solves; or nullptr.
+  const tree::InjectedHalos* injected = nullptr;
   bool uniform(Index c) const { return full[c] == kStencilUniform; }
   bool empty(Index c) const { return full[c] == kStencilEmpty; }
   double at(Index c, int face) const {

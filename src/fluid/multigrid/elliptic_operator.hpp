@@ -66,6 +66,12 @@ class EllipticOperator {
   const tree::Tree<D>& tree() const { return tree_; }
   const tree::BoundaryConditions<D>& bc() const { return bc_; }
   const tree::BoundaryConditions<D>& correction_bc() const { return correction_bc_; }
+  // The halo groups this operator reads with weight 0 only, which its syncs may inject
+  // (tree::Tree::injected_halos), or nullptr.
+  const tree::InjectedHalos* injected_halos() const {
+    if constexpr (requires { alpha_.injected; }) return alpha_.injected;
+    else return nullptr;
+  }
 
   // No Dirichlet side on a non-periodic direction and no lambda: a is defined up to a
   // constant and b must be compatible with the boundary fluxes.
@@ -91,8 +97,13 @@ class EllipticOperator {
     const Index* row = lv.face_row(c);
     if (lv.leaf[c - lv.base] != tree::Level<D>::kLeafNextToFiner)
       return plain(c, 1.0 / (h * h), a, [row](int k) { return row[k]; });
-    // Fluxes times h, so that the sum is scaled once (no division per face).
     const double ac = a[c];
+    // A cell without fluid next to a finer region (the solid side of a wall kept coarse):
+    // the fine faces covering its closed faces are closed too (EmbeddedGeometry makes a
+    // coarse face their mean), so plain()'s short path gives the same numbers.
+    if constexpr (kUniformCells)
+      if (alpha_.empty(c)) return 0.0 + lambda_term(c, ac);
+    // Fluxes times h, so that the sum is scaled once (no division per face).
     double sum = 0.0;
 #pragma GCC unroll 6
     for (int k = 0; k < F; ++k) {

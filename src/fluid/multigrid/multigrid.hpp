@@ -158,7 +158,7 @@ void vcycle(const Op& op, std::span<double> res, std::span<double> da, std::span
       for (tree::Index c = lv.active_begin(); c < lv.active_end(); ++c) da[c] = 0.0;
     } else {
       t.prolong_level(l, da, tree::Prolongation::linear);
-      t.fill_halo(l, da, tree::Prolongation::linear, tree::Tree<Op::kDimension>::HaloCells::face_read);
+      t.fill_halo(l, da, tree::Prolongation::linear, tree::Tree<Op::kDimension>::HaloCells::face_read, op.injected_halos());
     }
     t.fill_boundary_cells(l, da, op.correction_bc());
     op.relax(l, da, res, l == 0 ? opt.coarsest_sweeps : opt.relax_sweeps, opt, scratch, corrected);
@@ -171,7 +171,7 @@ namespace detail {
 template <class Op>
 double synced_residual(const Op& op, std::span<double> a, std::span<const double> b, std::span<double> res) {
   // Quadratic halo values keep the leaf operator second order across resolution jumps.
-  op.tree().sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic);
+  op.tree().sync_leaf_neighbors(a, op.bc(), tree::Prolongation::quadratic, op.injected_halos());
   return op.residual(a, b, res);
 }
 }  // namespace detail
@@ -242,7 +242,7 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       } else {
         t.for_each_leaf([&](tree::Index c) { p[c] = da[c]; });
       }
-      t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic);
+      t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic, op.injected_halos());
       op.apply_leaves(p, q);  // L0 p: p's boundary cells hold homogeneous values
       pq_old = detail::leaf_dot<D>(t, p, q);
       const double step = detail::leaf_dot<D>(t, p, res) / pq_old;
@@ -255,6 +255,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
     ++stats.cycles;
     if (!krylov && opt.krylov_on_growth && current > previous) krylov = stats.switched_to_krylov = true;
   }
+  // a leaves synced as without injected halos (its readers need not weigh them by zero).
+  if (const tree::InjectedHalos* injected = op.injected_halos())
+    t.refill_injected_halos(a, op.bc(), tree::Prolongation::quadratic, *injected);
   stats.final_residual = current;
   stats.converged = current <= opt.tolerance;
   return stats;
