@@ -290,9 +290,11 @@ void EmbeddedGeometry<D>::collect_walls() {
   uniform_.assign(static_cast<std::size_t>(tree_.num_cells()), 0);
   for (int l = 0; l <= tree_.depth(); ++l) {
     const tree::Level<D>& lv = tree_.level(l);
+    for (Index c = lv.active_begin(); c < lv.active_end(); ++c)
+      if (wall_area_[static_cast<std::size_t>(c)] > 0.0) cut_cells_[static_cast<std::size_t>(l)].push_back(c);
+#pragma omp parallel for schedule(static) if (lv.n_active > tree::kParallelMin)
     for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
       const auto s = static_cast<std::size_t>(c);
-      if (wall_area_[s] > 0.0) cut_cells_[static_cast<std::size_t>(l)].push_back(c);
       bool open = volume_[s] == 1.0 && wall_area_[s] == 0.0;
       bool closed = volume_[s] == 0.0 && wall_area_[s] == 0.0;
       const Index* row = lv.face_row(c);

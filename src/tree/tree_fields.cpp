@@ -2,6 +2,7 @@
 // to a new tree. One mechanism serves every solver: see the rules in prolongation.hpp
 // (levels) and boundary.hpp (sides).
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -161,20 +162,27 @@ InjectedHalos Tree<D>::injected_halos(std::span<const std::uint8_t> closed) cons
     const Level<D>& lv = levels_[l];
     std::vector<std::uint8_t>& flags = out[static_cast<std::size_t>(l)];
     flags.resize(static_cast<std::size_t>(lv.n_halo / C));
-    for (Index g = 0; g < lv.n_halo / C; ++g) flags[static_cast<std::size_t>(g)] = closed[static_cast<std::size_t>(lv.halo_parent[g])] != 0;
-    if (l == depth_) continue;
+    bool any = false;
+    for (Index g = 0; g < lv.n_halo / C; ++g) {
+      flags[static_cast<std::size_t>(g)] = closed[static_cast<std::size_t>(lv.halo_parent[g])] != 0;
+      any = any || flags[static_cast<std::size_t>(g)];
+    }
+    if (l == depth_ || !any) continue;
     // A prolongation to level l + 1 reads the 3^D block of its coarse cell (a boundary cell
-    // stands for its source): those halo groups keep their prolonged values.
+    // stands for its source): those halo groups keep their prolonged values. Threads clear
+    // flags concurrently (the same value), hence the atomic stores.
     auto keep_block = [&](Index parent) {
       for (int s = 0; s < kStencil<D>; ++s) {
         Index c = lv.neighbor(parent, s);
         while (c >= lv.boundary_begin() && c < lv.boundary_end()) c = lv.boundary_source[c - lv.boundary_begin()];
-        if (c >= lv.halo_begin() && c < lv.halo_end()) flags[static_cast<std::size_t>((c - lv.halo_begin()) / C)] = 0;
+        if (c >= lv.halo_begin() && c < lv.halo_end())
+          std::atomic_ref<std::uint8_t>(flags[static_cast<std::size_t>((c - lv.halo_begin()) / C)]).store(0, std::memory_order_relaxed);
       }
     };
     const Level<D>& next = levels_[l + 1];
-    for (Index g = 0; g < next.n_active / C; ++g) keep_block(next.group_parent[g]);
-    for (Index g = 0; g < next.n_halo / C; ++g) keep_block(next.halo_parent[g]);
+    const Index active_groups = next.n_active / C, groups = active_groups + next.n_halo / C;
+#pragma omp parallel for schedule(static) if (groups * C > kParallelMin)
+    for (Index g = 0; g < groups; ++g) keep_block(g < active_groups ? next.group_parent[g] : next.halo_parent[g - active_groups]);
   }
   return out;
 }

@@ -33,6 +33,8 @@ constexpr double kNoNormal = 1e-9;
 // How close to a grid axis a wall's normal, and to the line of a cell's centre its centroid
 // (in cells), must be for the fit along that line (normal_column).
 constexpr double kAligned = 1e-12;
+// Cut cells of a level from which their fits run on several threads (an Eigen solve each).
+constexpr Index kFitsParallelMin = 256;
 
 // A wall along a grid axis whose centroid lies on the line of c's centre: the points of the
 // fit on that line (c and its neighbour into the fluid), else none. The fit's other points
@@ -58,98 +60,127 @@ std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>> normal_column(
   return column;
 }
 
+
+// One cut cell's stencil: grad a(x_w) . N / h^D = self a_c + sum others + (-total) a_wall.
+struct CellFit {
+  bool flux = false;  // false: a coarse cell around a whole closed wall (no net normal)
+  bool column = false, fallback = false;
+  double self = 0.0, total = 0.0;
+  std::vector<std::pair<Index, double>> others;
+};
+
+template <int D>
+CellFit fit_cut_cell(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry, int l, Index c) {
+  using Vec = Eigen::Matrix<double, D, 1>;
+  using Mat = Eigen::Matrix<double, D, D>;
+  const tree::Level<D>& lv = t.level(l);
+  const std::span<const double> volume = geometry.volume();
+  const double h = t.cell_size(l), inv_volume = 1.0 / std::pow(h, D);
+  CellFit fit;
+  const bool leaf = lv.is_leaf(c);
+  const tree::Point<D> centre = t.center(c), wall_centre = geometry.wall_centroid(c);
+  const std::array<double, D> area = geometry.wall_normal_area(c);
+  Vec n, xw;
+  for (int d = 0; d < D; ++d) {
+    n[d] = area[static_cast<std::size_t>(d)];
+    xw[d] = (wall_centre[d] - centre[d]) / h;  // from c's centre, in cells
+  }
+  // A coarse cell around a whole closed wall (a root around a pipe) has no net normal:
+  // no flux through it for any linear field, and no direction to fit along.
+  if (!(n.norm() > kNoNormal * geometry.wall_area(c))) return fit;
+  fit.flux = true;
+  // The points: c and its same-level neighbours with fluid, relative to the wall centroid.
+  std::vector<std::pair<Index, Vec>> points;
+  const Vec into_fluid = -n.normalized();
+  if (-xw.dot(into_fluid) >= kFluidSide) points.push_back({c, -xw});
+  for (int s = 0; s < tree::kStencil<D>; ++s) {
+    const Index k = lv.neighbor(c, s);
+    if (k < lv.active_begin() || k >= lv.active_end() || !(volume[static_cast<std::size_t>(k)] > 0.0)) continue;
+    if (leaf && !lv.is_leaf(k)) continue;
+    Vec y;
+    for (int d = 0; d < D; ++d) y[d] = tree::kOffsets<D>[static_cast<std::size_t>(s)][static_cast<std::size_t>(d)] - xw[d];
+    if (y.dot(into_fluid) >= kFluidSide) points.push_back({k, y});
+  }
+  // Weighted by the inverse square of each point's distance from the wall's plane: the
+  // nearest cells say most about the gradient there (a farther point adds the flow's
+  // curvature across the wall, times its distance, to it).
+  const Vec unit = n.normalized();
+  auto omega = [&unit](const Vec& y) {
+    const double across = y.dot(unit);
+    return 1.0 / (across * across + kNearWeight);
+  };
+  // Each point's weight is omega(y) (q . y) / h^D: the fit's q = M^-1 N / h, or on a
+  // column grad a . N = |N| sum_k omega_k s_k (a_k - a_wall) / (h sum_k omega_k s_k^2),
+  // s_k = y_k . unit.
+  std::vector<std::pair<Index, Vec>> used = normal_column(points, unit, xw);
+  Vec q = Vec::Zero();
+  if (used.size() >= 2) {
+    double normal = 0.0;
+    for (const auto& [k, y] : used) normal += omega(y) * y.dot(unit) * y.dot(unit);
+    q = unit * (n.norm() / (normal * h));
+    fit.column = true;
+  } else {
+    Mat m = Mat::Zero();
+    for (const auto& [k, y] : points) m += omega(y) * y * y.transpose();
+    const Eigen::SelfAdjointEigenSolver<Mat> spread(m, Eigen::EigenvaluesOnly);
+    if (spread.eigenvalues().minCoeff() >= kMinSpread) {
+      q = m.ldlt().solve(n) / h;
+      used = std::move(points);
+    } else {
+      used.clear();
+    }
+  }
+  if (!used.empty()) {
+    for (const auto& [k, y] : used) {
+      const double w = omega(y) * q.dot(y) * inv_volume;
+      fit.total += w;
+      if (k == c) fit.self = w;
+      else fit.others.push_back({k, w});
+    }
+  } else {
+    fit.fallback = true;
+    const double length = n.norm();
+    const double distance = std::max(n.dot(xw) / length, 0.5) * h;  // centre to the wall plane
+    fit.self = -length / distance * inv_volume;
+    fit.total = fit.self;
+  }
+  return fit;
+}
+
 }  // namespace
 
 template <int D>
 WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry, Band band) : has_band_(band == Band::listed) {
-  using Vec = Eigen::Matrix<double, D, 1>;
-  using Mat = Eigen::Matrix<double, D, D>;
   row_.assign(static_cast<std::size_t>(t.num_cells()), -1);
   start_.assign(1, 0);
   cut_cells_.assign(static_cast<std::size_t>(t.depth() + 1), {});
   band_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
   cut_by_colour_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
   const std::span<const double> volume = geometry.volume();
+  std::vector<CellFit> fits;
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
-    const double h = t.cell_size(l), inv_volume = 1.0 / std::pow(h, D);
-    for (const Index c : geometry.cut_cells(l)) {
-      const bool leaf = lv.is_leaf(c);
-      const tree::Point<D> centre = t.center(c), wall_centre = geometry.wall_centroid(c);
-      const std::array<double, D> area = geometry.wall_normal_area(c);
-      Vec n, xw;
-      for (int d = 0; d < D; ++d) {
-        n[d] = area[static_cast<std::size_t>(d)];
-        xw[d] = (wall_centre[d] - centre[d]) / h;  // from c's centre, in cells
-      }
-      // A coarse cell around a whole closed wall (a root around a pipe) has no net normal:
-      // no flux through it for any linear field, and no direction to fit along.
-      if (!(n.norm() > kNoNormal * geometry.wall_area(c))) continue;
-      // The points: c and its same-level neighbours with fluid, relative to the wall centroid.
-      std::vector<std::pair<Index, Vec>> points;
-      const Vec into_fluid = -n.normalized();
-      if (-xw.dot(into_fluid) >= kFluidSide) points.push_back({c, -xw});
-      for (int s = 0; s < tree::kStencil<D>; ++s) {
-        const Index k = lv.neighbor(c, s);
-        if (k < lv.active_begin() || k >= lv.active_end() || !(volume[static_cast<std::size_t>(k)] > 0.0)) continue;
-        if (leaf && !lv.is_leaf(k)) continue;
-        Vec y;
-        for (int d = 0; d < D; ++d) y[d] = tree::kOffsets<D>[static_cast<std::size_t>(s)][static_cast<std::size_t>(d)] - xw[d];
-        if (y.dot(into_fluid) >= kFluidSide) points.push_back({k, y});
-      }
-      // Weighted by the inverse square of each point's distance from the wall's plane: the
-      // nearest cells say most about the gradient there (a farther point adds the flow's
-      // curvature across the wall, times its distance, to it).
-      const Vec unit = n.normalized();
-      auto omega = [&unit](const Vec& y) {
-        const double across = y.dot(unit);
-        return 1.0 / (across * across + kNearWeight);
-      };
-      const auto r = static_cast<std::int32_t>(self_.size());
-      row_[static_cast<std::size_t>(c)] = r;
+    // The fits in parallel (each cell's own arithmetic), then appended in the cut cells'
+    // order: the same stencils as one by one.
+    const auto cuts = geometry.cut_cells(l);
+    const auto n = static_cast<Index>(cuts.size());
+    fits.assign(cuts.size(), {});
+#pragma omp parallel for schedule(dynamic, 64) if (n > kFitsParallelMin)
+    for (Index i = 0; i < n; ++i) fits[static_cast<std::size_t>(i)] = fit_cut_cell(t, geometry, l, cuts[static_cast<std::size_t>(i)]);
+    for (std::size_t i = 0; i < cuts.size(); ++i) {
+      const CellFit& fit = fits[i];
+      if (!fit.flux) continue;
+      const Index c = cuts[i];
+      row_[static_cast<std::size_t>(c)] = static_cast<std::int32_t>(self_.size());
       cut_cells_[static_cast<std::size_t>(l)].push_back(c);
-      // Each point's weight is omega(y) (q . y) / h^D: the fit's q = M^-1 N / h, or on a
-      // column grad a . N = |N| sum_k omega_k s_k (a_k - a_wall) / (h sum_k omega_k s_k^2),
-      // s_k = y_k . unit.
-      std::vector<std::pair<Index, Vec>> used = normal_column(points, unit, xw);
-      Vec q = Vec::Zero();
-      if (used.size() >= 2) {
-        double normal = 0.0;
-        for (const auto& [k, y] : used) normal += omega(y) * y.dot(unit) * y.dot(unit);
-        q = unit * (n.norm() / (normal * h));
-        ++columns_;
-      } else {
-        Mat m = Mat::Zero();
-        for (const auto& [k, y] : points) m += omega(y) * y * y.transpose();
-        const Eigen::SelfAdjointEigenSolver<Mat> spread(m, Eigen::EigenvaluesOnly);
-        if (spread.eigenvalues().minCoeff() >= kMinSpread) {
-          q = m.ldlt().solve(n) / h;
-          used = std::move(points);
-        } else {
-          used.clear();
-        }
+      for (const auto& [k, w] : fit.others) {
+        cell_.push_back(k);
+        weight_.push_back(w);
       }
-      double self = 0.0, total = 0.0;
-      if (!used.empty()) {
-        for (const auto& [k, y] : used) {
-          const double w = omega(y) * q.dot(y) * inv_volume;
-          total += w;
-          if (k == c) {
-            self = w;
-          } else {
-            cell_.push_back(k);
-            weight_.push_back(w);
-          }
-        }
-      } else {
-        ++fallbacks_;
-        const double length = n.norm();
-        const double distance = std::max(n.dot(xw) / length, 0.5) * h;  // centre to the wall plane
-        self = -length / distance * inv_volume;
-        total = self;
-      }
-      self_.push_back(self);
-      wall_.push_back(-total);
+      columns_ += fit.column;
+      fallbacks_ += fit.fallback;
+      self_.push_back(fit.self);
+      wall_.push_back(-fit.total);
       start_.push_back(static_cast<std::int32_t>(cell_.size()));
     }
     auto colour_of = [&lv](Index c) {
