@@ -39,8 +39,8 @@ void NavierStokes<D>::rebuild_embedded() {
   embedded_face_coefficients<D>(tree_, *embedded_, 1.0 / options_.density, pressure_faces_);
   embedded_cell_coefficients<D>(tree_, *embedded_, 0.0, pressure_pins_);
   embedded_face_coefficients<D>(tree_, *embedded_, mu_, viscous_faces_);
-  // The halos of the cells without fluid: the solves' syncs inject them (a quadratic
-  // prolongation each, a twelfth of an embedded step where the solid side is coarse).
+  // The halos of the cells without fluid: the solves' syncs inject them instead of a
+  // quadratic prolongation each (docs/walls.md, "Cost").
   {
     std::vector<std::uint8_t> closed(embedded_->uniform().size());
     for (std::size_t c = 0; c < closed.size(); ++c) closed[c] = embedded_->uniform()[c] == kStencilEmpty;

@@ -60,7 +60,6 @@ std::vector<std::pair<Index, Eigen::Matrix<double, D, 1>>> normal_column(
   return column;
 }
 
-
 // One cut cell's stencil: grad a(x_w) . N / h^D = self a_c + sum others + (-total) a_wall.
 struct CellFit {
   bool flux = false;  // false: a coarse cell around a whole closed wall (no net normal)
