@@ -1,8 +1,8 @@
 // The walls' flux (fluid/multigrid/wall_flux.hpp) and the cells without fluid in the embedded
 // operator (EmbeddedFaces, kStencilEmpty): every cut cell's flux is exact for linear fields,
 // on the fit's stencils and on the column of a wall along a grid axis; a channel's planar
-// walls take the column; the empty cells' short path gives the array path's numbers to the
-// bit.
+// walls take the column; the empty cells' short path and the solid side's injected halos
+// give the array path's and the prolonged halos' numbers to the bit.
 #include <gtest/gtest.h>
 
 #include <cmath>
