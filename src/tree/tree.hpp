@@ -58,9 +58,9 @@ inline constexpr Index kParallelMin = 4096;
 // fields: adapt() only resizes them.
 enum class Prolongation : unsigned char { linear, limited, quadratic, none };
 
-// Per level, one flag per halo group: the groups a fill gives their coarse leaf's value
-// (injection) instead of a prolongation, because no stencil that reads them weighs them
-// (Tree::injected_halos).
+// Per level, one flag per halo group (no flags on a level without any): the groups a fill
+// gives their coarse leaf's value (injection) instead of a prolongation, because no stencil
+// that reads them weighs them (Tree::injected_halos).
 using InjectedHalos = std::vector<std::vector<std::uint8_t>>;
 
 template <int D>

@@ -126,7 +126,8 @@ void Tree<D>::fill_halo_groups(int l, std::span<double> v, Prolongation p, HaloC
     inject = (*injected)[static_cast<std::size_t>(l)].data();
   }
   if (refill && !inject) return;
-  // Whether group g is left to the caller's choice: injected now, or (refill) not at all.
+  // Whether group g is not prolonged here: a flagged group is injected now, and a refill
+  // prolongs the flagged groups alone.
   auto injected_now = [inject, refill, first, &lv, v](Index g) {
     const bool flagged = inject && inject[g];
     if (refill) return !flagged;
@@ -167,7 +168,11 @@ InjectedHalos Tree<D>::injected_halos(std::span<const std::uint8_t> closed) cons
       flags[static_cast<std::size_t>(g)] = closed[static_cast<std::size_t>(lv.halo_parent[g])] != 0;
       any = any || flags[static_cast<std::size_t>(g)];
     }
-    if (l == depth_ || !any) continue;
+    if (!any) {
+      flags.clear();  // nothing to inject on this level: fills and refills pass it by
+      continue;
+    }
+    if (l == depth_) continue;
     // A prolongation to level l + 1 reads the 3^D block of its coarse cell (a boundary cell
     // stands for its source): those halo groups keep their prolonged values. Threads clear
     // flags concurrently (the same value), hence the atomic stores.
@@ -190,8 +195,10 @@ InjectedHalos Tree<D>::injected_halos(std::span<const std::uint8_t> closed) cons
 template <int D>
 void Tree<D>::refill_injected_halos(std::span<double> v, const BoundaryConditions<D>& bc, Prolongation p,
                                     const InjectedHalos& injected) const {
-  // Level by level as the sync: a level's boundary cells may stand for its halo cells.
+  // Level by level as the sync: a level's boundary cells may stand for its halo cells
+  // (a level without injected groups kept its own).
   for (int l = 1; l <= depth_; ++l) {
+    if (static_cast<std::size_t>(l) >= injected.size() || injected[static_cast<std::size_t>(l)].empty()) continue;
     fill_halo_groups(l, v, p, HaloCells::face_read, &injected, true);
     fill_boundary_cells(l, v, bc);
   }
