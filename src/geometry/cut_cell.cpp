@@ -128,7 +128,10 @@ void add_wall_piece(const std::array<Eigen::Matrix<double, D, 1>, D + 1>& x, con
   moment += area * centroid;
 }
 
-constexpr double kSimplexMeasure[] = {1.0, 1.0, 0.5, 1.0 / 6.0};
+// The cube's D! simplices: the volume is their fractions' sum over D!, which is exactly 1
+// for a full cell (a sum of terms 1/6 is not: a cell touching a wall by a face would not be
+// full, and would miss the operators' constant stencils).
+constexpr double kSimplices[] = {1.0, 1.0, 2.0, 6.0};
 
 }  // namespace
 
@@ -180,11 +183,11 @@ CellCut<D> cut_with_triangles(const std::array<double, (1 << D)>& phi, std::vect
       for (int d = 0; d < D; ++d) x[static_cast<std::size_t>(k + 1)][d] = (corner >> d) & 1;
       f[static_cast<std::size_t>(k + 1)] = phi[static_cast<std::size_t>(corner)];
     }
-    volume += kSimplexMeasure[D] * simplex_fluid_fraction<D>(f);
+    volume += simplex_fluid_fraction<D>(f);
     add_wall_piece<D>(x, f, cut, moment, triangles);
   } while (std::next_permutation(order.begin(), order.end()));
   static_assert(C == (1 << D));
-  cut.volume = std::clamp(volume, 0.0, 1.0);
+  cut.volume = std::clamp(volume / kSimplices[D], 0.0, 1.0);
   if (cut.wall_area > 0.0)
     for (int d = 0; d < D; ++d) cut.wall_centroid[static_cast<std::size_t>(d)] = moment[d] / cut.wall_area;
   return cut;
