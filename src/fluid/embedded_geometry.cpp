@@ -297,13 +297,22 @@ void EmbeddedGeometry<D>::collect_walls() {
       const auto s = static_cast<std::size_t>(c);
       bool open = volume_[s] == 1.0 && wall_area_[s] == 0.0;
       bool closed = volume_[s] == 0.0 && wall_area_[s] == 0.0;
+      // A full cell with every face open but one: its wall lies on that face.
+      int open_faces = 0, closed_face = -1;
       const Index* row = lv.face_row(c);
       for (int d = 0; d < D; ++d) {
         const double lower = faces_[d][s], upper = faces_[d][static_cast<std::size_t>(row[2 * d + 1])];
         open = open && lower == 1.0 && upper == 1.0;
         closed = closed && lower == 0.0 && upper == 0.0;
+        open_faces += (lower == 1.0) + (upper == 1.0);
+        if (lower == 0.0) closed_face = 2 * d;
+        if (upper == 0.0) closed_face = 2 * d + 1;
       }
-      uniform_[s] = open ? kStencilUniform : closed ? kStencilEmpty : kStencilArrays;
+      const bool one_closed = volume_[s] == 1.0 && open_faces == 2 * D - 1 && closed_face >= 0;
+      uniform_[s] = open         ? kStencilUniform
+                    : closed     ? kStencilEmpty
+                    : one_closed ? static_cast<std::uint8_t>(kStencilClosedFace + closed_face)
+                                 : kStencilArrays;
     }
   }
 }

@@ -75,7 +75,8 @@ class EmbeddedGeometry {
   tree::Point<D> wall_centroid(Index c) const;
   // Per cell slot, kStencilUniform for the active cells away from the walls (all fluid, every
   // face open, no wall: the operators take their stencils as the brick's), kStencilEmpty for
-  // those without fluid (every face closed, no wall: only their cell term), kStencilArrays
+  // those without fluid (every face closed, no wall: only their cell term), kStencilClosedFace
+  // + k for the full cells with every face open but k (a wall on that face), kStencilArrays
   // for the rest (multigrid/coefficients.hpp, EmbeddedFaces).
   std::span<const std::uint8_t> uniform() const { return uniform_; }
   // The active cells of level l that the wall cuts (wall_area > 0), in index order.

@@ -173,12 +173,10 @@ void NavierStokes<D>::update_properties() {
         embedded_mu_faces_[i] = viscous_faces_[i] * (mu_faces_[i] / mu_);
       }
       const std::uint8_t open = c < open_uniform.size() ? open_uniform[c] : kStencilArrays;
-      embedded_mu_uniform_[c] = open == kStencilEmpty ? kStencilEmpty
-                                : mu_uniform_[c] && open == kStencilUniform ? kStencilUniform
-                                                                            : kStencilArrays;
-      // The uniform cells' stencil takes the constant cell term rho / (theta dt) too.
-      if (embedded_mu_uniform_[c] == kStencilUniform && !uniform_density_ && relative_density_[c] != 1.0)
-        embedded_mu_uniform_[c] = kStencilArrays;
+      const bool constant = open == kStencilUniform || closed_face_stencil(open);
+      embedded_mu_uniform_[c] = open == kStencilEmpty ? kStencilEmpty : mu_uniform_[c] && constant ? open : kStencilArrays;
+      // The constant stencils take the constant cell term rho / (theta dt) too.
+      if (constant && !uniform_density_ && relative_density_[c] != 1.0) embedded_mu_uniform_[c] = kStencilArrays;
     }
     cell_mu_.assign(mu.begin(), mu.end());
     tree_.restrict_and_exchange(cell_mu_);
@@ -236,7 +234,8 @@ void NavierStokes<D>::stabilise_band(double h) {
       embedded_stabilising_faces_[i] = viscous_faces_[i] * (stabilising_faces_[i] / mu_);
     }
     const std::uint8_t flag = embedded_mu_uniform_[c];
-    embedded_stabilised_uniform_[c] = flag == kStencilUniform && !stabilised_uniform_[c] ? kStencilArrays : flag;
+    const bool constant = flag == kStencilUniform || closed_face_stencil(flag);
+    embedded_stabilised_uniform_[c] = constant && !stabilised_uniform_[c] ? kStencilArrays : flag;
   }
   stabilised_cell_mu_ = std::move(mu_s);
   tree_.restrict_and_exchange(stabilised_cell_mu_);
@@ -257,13 +256,13 @@ void NavierStokes<D>::embedded_density() {
 #pragma omp parallel for schedule(static)
   for (std::size_t c = 0; c < slots; ++c) {
     const std::uint8_t open = c < open_uniform.size() ? open_uniform[c] : kStencilArrays;
-    bool uniform = open == kStencilUniform;
+    bool constant = open == kStencilUniform || closed_face_stencil(open);
     for (int k = 0; k < 2 * D; ++k) {
       const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
       embedded_alpha_faces_[i] = pressure_faces_[i] * options_.density * alpha_faces_[i];
-      uniform = uniform && alpha_faces_[i] == inv_rho;
+      constant = constant && alpha_faces_[i] == inv_rho;
     }
-    embedded_alpha_uniform_[c] = open == kStencilEmpty ? kStencilEmpty : uniform ? kStencilUniform : kStencilArrays;
+    embedded_alpha_uniform_[c] = open == kStencilEmpty ? kStencilEmpty : constant ? open : kStencilArrays;
   }
   // The viscous solves' cell term rho / (theta dt) per cell slot, relative to the density's;
   // a parent takes the mean of its children's (the mass it stands for).

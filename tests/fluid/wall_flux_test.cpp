@@ -2,9 +2,12 @@
 // operator (EmbeddedFaces, kStencilEmpty): every cut cell's flux is exact for linear fields,
 // on the fit's stencils and on the column of a wall along a grid axis; a channel's planar
 // walls take the column; the empty cells' short path and the solid side's injected halos
-// give the array path's and the prolonged halos' numbers to the bit.
+// give the array path's and the prolonged halos' numbers to the bit, the closed-face cells'
+// constant stencil the array path's to rounding.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -142,6 +145,92 @@ TEST(EmbeddedOperator, CellsWithoutFluidCostTheirCellTermAndChangeNoNumber) {
   EXPECT_TRUE(a.converged);
   EXPECT_EQ(a.cycles, c.cycles);
   EXPECT_EQ(s_fast, s_slow);
+}
+
+// The layer along walls that lie on grid faces (kStencilClosedFace: a full cell with one
+// closed face) takes the constant stencil without that face: the same residuals and relaxed
+// values as on the array path, to rounding, and solves that agree to their tolerance, for
+// the viscous kind of operator (with the walls' flux) and the projection's (pinned).
+TEST(EmbeddedOperator, CellsWithAClosedFaceTakeTheConstantStencil) {
+  // z walls on level-5 faces that are not level 4's (the layer's neighbour into the fluid
+  // lies in the next level-4 cell), y walls across cells.
+  const auto solid = geometry::complement(geometry::box({-1.0, 0.2345, 0.28125}, {2.0, 0.8123, 0.71875}));
+  std::int64_t face_columns = 0, others = 0;
+  // Refined two cells deep along the walls (the layer's cells take the face column), and
+  // only at them (next to coarser cells: a wider fit, which the smoother lags or reads).
+  for (const double band : {2.0, 0.0}) {
+    SCOPED_TRACE(band);
+    const Tree<3> t = testing::refined_along<3>(solid, 2, 5, band);
+    const EmbeddedGeometry<3> g(t, solid);
+    const WallFlux<3> walls(t, g, WallFlux<3>::Band::none);
+    std::vector<double> alpha, lambda, pins;
+    embedded_face_coefficients<3>(t, g, 0.7, alpha);
+    embedded_cell_coefficients<3>(t, g, -50.0, lambda);
+    embedded_cell_coefficients<3>(t, g, 0.0, pins);
+    std::vector<std::uint8_t> arrays(g.uniform().begin(), g.uniform().end());
+    std::array<std::int64_t, 6> closed{};
+    for (std::size_t c = 0; c < arrays.size(); ++c) {
+      EXPECT_TRUE(!walls.face_column(static_cast<Index>(c)) || closed_face_stencil(arrays[c])) << "cell " << c;
+      if (closed_face_stencil(arrays[c])) {
+        ++closed[static_cast<std::size_t>(arrays[c] - kStencilClosedFace)];
+        (walls.face_column(static_cast<Index>(c)) ? face_columns : others) += 1;
+        arrays[c] = kStencilArrays;
+      }
+    }
+    for (int k = 4; k < 6; ++k) EXPECT_GT(closed[static_cast<std::size_t>(k)], 0) << "face " << k;
+    EXPECT_EQ(closed[2] + closed[3], 0);  // the y walls cut their cells
+    // A field that is not zero in the solid either.
+    std::vector<double> u(static_cast<std::size_t>(t.num_cells()), 0.0), b(u.size(), 0.0);
+    for (const Index c : t.leaves()) {
+      const tree::Point<3> x = t.center(c);
+      u[static_cast<std::size_t>(c)] = std::sin(3.0 * x[0]) + x[1] * x[2];
+      b[static_cast<std::size_t>(c)] = std::cos(2.0 * x[1]) * g.volume()[static_cast<std::size_t>(c)];
+    }
+    auto max_abs = [](const std::vector<double>& v) {
+      double m = 0.0;
+      for (const double x : v) m = std::max(m, std::abs(x));
+      return m;
+    };
+    auto max_diff = [](const std::vector<double>& v, const std::vector<double>& w) {
+      double m = 0.0;
+      for (std::size_t i = 0; i < v.size(); ++i) m = std::max(m, std::abs(v[i] - w[i]));
+      return m;
+    };
+    auto compare = [&](const auto& fast, const auto& slow, const tree::BoundaryConditions<3>& bc, const char* what) {
+      SCOPED_TRACE(what);
+      std::vector<double> a = u;
+      t.sync(std::span<double>(a), bc);
+      std::vector<double> r_fast(u.size(), 0.0), r_slow(u.size(), 0.0);
+      (void)fast.residual(a, b, r_fast);
+      (void)slow.residual(a, b, r_slow);
+      EXPECT_LE(max_diff(r_fast, r_slow), 1e-13 * max_abs(r_slow));
+      const MultigridOptions opt{.wall_band_passes = 0};
+      std::vector<double> d_fast(u.size(), 0.0), d_slow(u.size(), 0.0), scratch(u.size(), 0.0);
+      fast.relax(t.depth(), d_fast, r_slow, 2, opt, scratch);
+      slow.relax(t.depth(), d_slow, r_slow, 2, opt, scratch);
+      EXPECT_LE(max_diff(d_fast, d_slow), 1e-12 * max_abs(d_slow));
+      std::vector<double> s_fast(u.size(), 0.0), s_slow(u.size(), 0.0);
+      MultigridWorkspace w_fast, w_slow;
+      const MultigridStats sf = solve(fast, s_fast, b, w_fast, {.tolerance = 1e-10, .wall_band_passes = 0});
+      const MultigridStats ss = solve(slow, s_slow, b, w_slow, {.tolerance = 1e-10, .wall_band_passes = 0});
+      EXPECT_TRUE(sf.converged && ss.converged);
+      EXPECT_EQ(sf.cycles, ss.cycles);
+      EXPECT_LE(max_diff(s_fast, s_slow), 1e-8 * max_abs(s_slow));
+    };
+    using Viscous = EllipticOperator<3, EmbeddedFaces<3>, EmbeddedCells, WallTerms<3>>;
+    const auto dirichlet = tree::BoundaryConditions<3>::all(tree::BcKind::dirichlet);
+    compare(Viscous(t, {0.7, alpha.data(), g.uniform().data()}, {-50.0, lambda.data(), g.uniform().data()}, dirichlet,
+                    {&walls, 0.7}),
+            Viscous(t, {0.7, alpha.data(), arrays.data()}, {-50.0, lambda.data(), arrays.data()}, dirichlet, {&walls, 0.7}),
+            dirichlet, "viscous");
+    using Pressure = EllipticOperator<3, EmbeddedFaces<3>, PinnedCells>;
+    auto neumann = tree::BoundaryConditions<3>::all(tree::BcKind::neumann);
+    neumann.side[1].kind = tree::BcKind::dirichlet;  // x_hi: a defined solution
+    compare(Pressure(t, {0.7, alpha.data(), g.uniform().data()}, {pins.data()}, neumann),
+            Pressure(t, {0.7, alpha.data(), arrays.data()}, {pins.data()}, neumann), neumann, "pressure");
+  }
+  EXPECT_GT(face_columns, 0);
+  EXPECT_GT(others, 0);
 }
 
 // The halos of the cells without fluid injected in the solves' syncs (Tree::injected_halos):

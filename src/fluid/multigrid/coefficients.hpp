@@ -44,17 +44,22 @@ struct ConstantCells {
 };
 
 // What a cell's stencil is, per cell slot (EmbeddedGeometry::uniform and the flags made
-// from it): the arrays' (near a wall or a property jump), the constant one, or none (a cell
-// without fluid: every face closed, no wall, only its own cell term).
+// from it): the arrays' (near a wall or a property jump), the constant one, none (a cell
+// without fluid: every face closed, no wall, only its own cell term), or the constant one
+// with face k closed (kStencilClosedFace + k: a full cell whose wall lies on that face, the
+// layer along a wall on grid faces; its cell term is the constant one too).
 inline constexpr std::uint8_t kStencilArrays = 0;
 inline constexpr std::uint8_t kStencilUniform = 1;
 inline constexpr std::uint8_t kStencilEmpty = 2;
+inline constexpr std::uint8_t kStencilClosedFace = 8;
+constexpr bool closed_face_stencil(std::uint8_t flag) { return flag >= kStencilClosedFace; }
 
 // Embedded walls (multigrid/embedded_coefficients.hpp): the fluid's own coefficient `value`
 // on the uniform cells (every face open, no wall: EmbeddedGeometry::uniform), the array
 // elsewhere. The operator takes the uniform cells' stencil as constant (no array read), so
-// the cells away from the walls cost what the brick's cells cost; a cell without fluid
-// costs its cell term only.
+// the cells away from the walls cost what the brick's cells cost, and a cell with one closed
+// face the same without that face (its wall's flux apart); a cell without fluid costs its
+// cell term only. The arrays hold every cell's values, whatever its flag.
 template <int D>
 struct EmbeddedFaces {
   static constexpr bool kConstant = false;
@@ -66,11 +71,15 @@ struct EmbeddedFaces {
   const tree::InjectedHalos* injected = nullptr;
   bool uniform(Index c) const { return full[c] == kStencilUniform; }
   bool empty(Index c) const { return full[c] == kStencilEmpty; }
+  // The closed face of a kStencilClosedFace cell, else a negative number.
+  int closed_face(Index c) const { return int{full[c]} - kStencilClosedFace; }
   double at(Index c, int face) const {
     return full[c] == kStencilUniform ? value : data[static_cast<std::size_t>(c) * (2 * D) + face];
   }
 };
 
+// lambda with EmbeddedFaces' flags: `value` on the uniform cells and the closed-face ones
+// (whose data must equal it: full cells of the fluid's own density), the array elsewhere.
 struct EmbeddedCells {
   static constexpr bool kConstant = false;
   double value = 0.0;

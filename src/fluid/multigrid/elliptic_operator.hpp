@@ -16,13 +16,18 @@
 //
 // Embedded walls (Walls = WallTerms, multigrid/wall_flux.hpp) add each cut cell's flux through
 // its wall, a fixed stencil over its 3^D block; the relaxation takes the cell's own weight
-// into the diagonal and the others' at their values when the colour's pass starts (a cell of
-// the same colour may be in the stencil: read before the pass, every thread and rank sees
-// the same numbers). Without walls (NoWalls) nothing of it is compiled in.
+// into the diagonal and the others' at their values when the colour's pass starts where a
+// cell of the same colour is in the stencil (read before the pass, every thread and rank sees
+// the same numbers), as the pass goes where not (WallFlux::lagged). The layer of full cells
+// along a wall on grid faces (kStencilClosedFace) takes the constant stencil without that
+// face, and its wall's column from WallFlux::face_column() in the relaxation. Without walls
+// (NoWalls) nothing of it is compiled in.
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <span>
 #include <stdexcept>
 #include <type_traits>
@@ -205,6 +210,14 @@ class EllipticOperator {
 
   bool spans_cells(std::span<const double> v) const { return v.size() == static_cast<std::size_t>(tree_.num_cells()); }
 
+  // A closed-face cell's weights of its face neighbours (per closed face k: 0 for k, alpha
+  // for the others, and with its wall on the face column, WallFlux::FaceColumn's `other`
+  // added opposite k), and its diagonal.
+  struct ClosedFaces {
+    std::array<std::array<double, F>, F> weight{};
+    double diagonal = 0.0;
+  };
+
   // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
   // (the same on every cell of a level): a multiplication per update instead of a
   // division, which was the critical path of a sweep. The constants are copied in (alpha
@@ -212,6 +225,7 @@ class EllipticOperator {
   // the compiler reloaded them after every update.
   struct Diagonal {
     double h2 = 0.0, inverse = 0.0, alpha = 0.0;
+    ClosedFaces closed, column;           // closed-face cells without and with the face column
     const double* wall_others = nullptr;  // with walls: each cut cell's lagged stencil sum
     Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
       if constexpr (Alpha::kConstant) alpha = op.alpha_.value;
@@ -219,19 +233,35 @@ class EllipticOperator {
       if constexpr (kUniformCells) {
         alpha = op.alpha_.value;
         inverse = 1.0 / (F * alpha - h2 * op.lambda_.uniform_value());
+        closed.diagonal = (F - 1) * alpha - h2 * op.lambda_.uniform_value();
+        for (int k = 0; k < F; ++k)
+          for (int j = 0; j < F; ++j) closed.weight[k][j] = j == k ? 0.0 : alpha;
+        column = closed;
+        if constexpr (Walls::kActive) {
+          // The smoother takes the walls' constant coefficient (a cell's own, at(c), is the
+          // residual's): these cells have the fluid's constant one on every face.
+          const typename WallFlux<D>::FaceColumn wall = WallFlux<D>::face_column();
+          column.diagonal -= op.walls_.alpha * wall.self;
+          for (int k = 0; k < F; ++k) column.weight[k][k ^ 1] += op.walls_.alpha * wall.other;
+        }
       }
     }
   };
 
   // The walls' part of L(a)_c (only compiled in with walls: x + 0.0 is not folded away).
   double wall_term(Index c, std::span<const double> a) const { return walls_.cut(c) ? walls_.term(c, a) : 0.0; }
+  // In a smoother's pass, cut cell c's wall sum over the rest of its stencil: lagged, or read
+  // now where it reads the other colour only (the same numbers: that colour is not changing).
+  double wall_others(Index c, const Diagonal& dg, std::span<const double> da) const {
+    return walls_.flux->lagged(c) ? dg.wall_others[c] : walls_.others(c, da);
+  }
 
-  // Before a colour's pass: each cut cell of level l and that colour gets the walls' sum
-  // over the rest of its stencil, at the values da holds now, in scratch (unused by
-  // red-black otherwise).
+  // Before a colour's pass: each lagged cut cell of level l and that colour (WallFlux::lagged)
+  // gets the walls' sum over the rest of its stencil, at the values da holds now, in scratch
+  // (unused by red-black otherwise).
   void lag_wall_terms(int l, int colour, std::span<const double> da, std::span<double> scratch) const {
     if constexpr (Walls::kActive) {
-      const std::span<const Index> cut = walls_.flux->cut_cells(l, colour);
+      const std::span<const Index> cut = walls_.flux->lagged_cells(l, colour);
       const auto n = static_cast<Index>(cut.size());
 #pragma omp parallel for schedule(static) if (n > kWallListParallelMin)
       for (Index i = 0; i < n; ++i) scratch[cut[i]] = walls_.others(cut[i], da);
@@ -270,10 +300,13 @@ class EllipticOperator {
     const double ac = a[c];
     double sum = 0.0;
     if constexpr (kUniformCells) {
-      if (alpha_.uniform(c)) {
+      if (alpha_.uniform(c)) return uniform_plain(c, inv_h2, a, nb);
+      if (const int closed = alpha_.closed_face(c); closed >= 0) {
 #pragma GCC unroll 6
-        for (int k = 0; k < F; ++k) sum += a[nb(k)];
-        return alpha_.value * (sum - F * ac) * inv_h2 + lambda_.uniform_value() * ac;
+        for (int k = 0; k < F; ++k) sum += (k == closed ? 0.0 : a[nb(k)]);
+        const double la = alpha_.value * (sum - (F - 1) * ac) * inv_h2 + lambda_.uniform_value() * ac;
+        if constexpr (Walls::kActive) return la + wall_term(c, a);
+        else return la;
       }
       // The array path's own numbers (closed faces add +0), without reading them.
       if (alpha_.empty(c)) return 0.0 + lambda_term(c, ac);
@@ -288,6 +321,51 @@ class EllipticOperator {
     }
     if constexpr (Walls::kActive) return sum * inv_h2 + lambda_term(c, ac) + wall_term(c, a);
     else return sum * inv_h2 + lambda_term(c, ac);
+  }
+
+  // plain() and updated() on a uniform cell (EmbeddedFaces: the constant stencil; other
+  // coefficients have no such cells).
+  template <class Neighbor>
+  double uniform_plain(Index c, double inv_h2, std::span<const double> a, Neighbor nb) const {
+    if constexpr (kUniformCells) {
+      const double ac = a[c];
+      double sum = 0.0;
+#pragma GCC unroll 6
+      for (int k = 0; k < F; ++k) sum += a[nb(k)];
+      return alpha_.value * (sum - F * ac) * inv_h2 + lambda_.uniform_value() * ac;
+    } else {
+      return plain(c, inv_h2, a, nb);
+    }
+  }
+  template <class Neighbor>
+  static double uniform_updated(Index c, const Diagonal& dg, std::span<const double> da, std::span<const double> res,
+                                Neighbor nb) {
+    double off = 0.0;
+#pragma GCC unroll 6
+    for (int k = 0; k < F; ++k) off += da[nb(k)];
+    return (dg.alpha * off - dg.h2 * res[c]) * dg.inverse;
+  }
+
+  // One byte per cell of a sibling group, `byte` in those of a red-black colour (all for
+  // colour -1).
+  static constexpr std::uint64_t group_bytes(int colour, std::uint64_t byte) {
+    std::uint64_t out = 0;
+    for (int b = 0; b < C; ++b)
+      if (colour < 0 || (std::popcount(static_cast<unsigned>(b)) & 1) == colour) out |= byte << (8 * b);
+    return out;
+  }
+  // Whether the cells of the group at `first` of a colour (all for -1) are uniform cells:
+  // one load of the group's flags, so that a group away from the walls takes the constant
+  // stencil without a branch per cell.
+  bool uniform_group(Index first, int colour) const {
+    if constexpr (kUniformCells) {
+      static_assert(C <= 8);
+      std::uint64_t flags = 0;
+      std::memcpy(&flags, alpha_.full + first, C);
+      return (flags & group_bytes(colour, 0xff)) == group_bytes(colour, kStencilUniform);
+    } else {
+      return false;
+    }
   }
 
   static void prefetch_high_neighbors(const tree::Level<D>& lv, Index group, const double* v) {
@@ -345,7 +423,12 @@ class EllipticOperator {
         if (g + kPrefetchGroups < g_end) prefetch_high_neighbors(lv, g + kPrefetchGroups, a.data());
         const std::uint8_t* leaf = lv.leaf.data() + (first - base);
         double value[C];
-        if (all_plain_leaves(leaf)) {  // the common case, without a branch per cell
+        if (all_plain_leaves(leaf) && uniform_group(first, -1)) {  // away from walls and jumps
+#pragma GCC unroll 8
+          for (int b = 0; b < C; ++b)
+            value[b] =
+                f(first + b, uniform_plain(first + b, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); }));
+        } else if (all_plain_leaves(leaf)) {  // the common case, without a branch per leaf kind
 #pragma GCC unroll 8
           for (int b = 0; b < C; ++b)
             value[b] = f(first + b, plain(first + b, inv_h2, a, [=](int k) { return tree::group_neighbor(first, gf, b, k); }));
@@ -396,10 +479,22 @@ class EllipticOperator {
     const double h2 = dg.h2;
     double off = 0.0, diag = 0.0;
     if constexpr (kUniformCells) {
-      if (alpha_.uniform(c)) {
+      if (alpha_.uniform(c)) return uniform_updated(c, dg, da, res, nb);
+      if (const int closed = alpha_.closed_face(c); closed >= 0) {
+        bool column = false;
+        if constexpr (Walls::kActive) column = walls_.flux->face_column(c);
+        const ClosedFaces& faces = column ? dg.column : dg.closed;
+        const std::array<double, F>& weight = faces.weight[static_cast<std::size_t>(closed)];
 #pragma GCC unroll 6
-        for (int k = 0; k < F; ++k) off += da[nb(k)];
-        return (dg.alpha * off - h2 * res[c]) * dg.inverse;
+        for (int k = 0; k < F; ++k) off += weight[k] * da[nb(k)];
+        diag = faces.diagonal;
+        if constexpr (Walls::kActive) {
+          if (!column && walls_.cut(c)) {
+            off += h2 * wall_others(c, dg, da);
+            diag -= h2 * walls_.self(c);
+          }
+        }
+        return (off - h2 * res[c]) / diag;
       }
       if (alpha_.empty(c)) return (0.0 - h2 * res[c]) / (0.0 - h2 * lambda_.at(c));  // as below, off = diag = +0
     }
@@ -420,7 +515,7 @@ class EllipticOperator {
     }
     if constexpr (Walls::kActive) {
       if (walls_.cut(c)) {
-        off += h2 * dg.wall_others[c];
+        off += h2 * wall_others(c, dg, da);
         diag -= h2 * walls_.self(c);
       }
     }
@@ -471,10 +566,18 @@ class EllipticOperator {
       const Index first = base + g * C;
       const Index* gf = lv.group_face_row(g);
       if (g + kPrefetchGroups < g_end) prefetch_high_neighbors(lv, g + kPrefetchGroups, da.data());
+      if (uniform_group(first, Colour)) {
 #pragma GCC unroll 8
-      for (int j = 0; j < C / 2; ++j) {
-        const int b = kOfColour[j];
-        da[first + b] = updated(first + b, dg, da, res, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+        for (int j = 0; j < C / 2; ++j) {
+          const int b = kOfColour[j];
+          da[first + b] = uniform_updated(first + b, dg, da, res, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+        }
+      } else {
+#pragma GCC unroll 8
+        for (int j = 0; j < C / 2; ++j) {
+          const int b = kOfColour[j];
+          da[first + b] = updated(first + b, dg, da, res, [=](int k) { return tree::group_neighbor(first, gf, b, k); });
+        }
       }
       if constexpr (kCorrect) {
         const std::uint8_t* leaf = lv.leaf.data() + (first - base);

@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include "fluid/multigrid/coefficients.hpp"
 #include "tree/morton.hpp"
 #include "tree/stencil.hpp"
 
@@ -35,6 +36,13 @@ constexpr double kNoNormal = 1e-9;
 constexpr double kAligned = 1e-12;
 // Cut cells of a level from which their fits run on several threads (an Eigen solve each).
 constexpr Index kFitsParallelMin = 256;
+// How close (relative) a closed-face cell's stencil must be to WallFlux::face_column() for
+// the smoother to take the latter: a rounding's worth (the fit's centroids and centres are
+// rounded differently at each cell), and a smoother needs no more.
+constexpr double kSameColumn = 1e-12;
+
+// The fit's weight of a point at distance `across` from the wall's plane (in cells).
+double near_weight(double across) { return 1.0 / (across * across + kNearWeight); }
 
 // A wall along a grid axis whose centroid lies on the line of c's centre: the points of the
 // fit on that line (c and its neighbour into the fluid), else none. The fit's other points
@@ -104,10 +112,7 @@ CellFit fit_cut_cell(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry
   // nearest cells say most about the gradient there (a farther point adds the flow's
   // curvature across the wall, times its distance, to it).
   const Vec unit = n.normalized();
-  auto omega = [&unit](const Vec& y) {
-    const double across = y.dot(unit);
-    return 1.0 / (across * across + kNearWeight);
-  };
+  auto omega = [&unit](const Vec& y) { return near_weight(y.dot(unit)); };
   // Each point's weight is omega(y) (q . y) / h^D: the fit's q = M^-1 N / h, or on a
   // column grad a . N = |N| sum_k omega_k s_k (a_k - a_wall) / (h sum_k omega_k s_k^2),
   // s_k = y_k . unit.
@@ -149,12 +154,24 @@ CellFit fit_cut_cell(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry
 }  // namespace
 
 template <int D>
+typename WallFlux<D>::FaceColumn WallFlux<D>::face_column() {
+  // fit_cut_cell's column for a wall half a cell from the centre, |N| = h^(D-1): the points
+  // at -1/2 and -3/2 along the normal into the solid, each weighed omega s / sum omega s^2.
+  const double s_self = -0.5, s_other = -1.5;
+  const double normal = near_weight(s_self) * s_self * s_self + near_weight(s_other) * s_other * s_other;
+  return {near_weight(s_self) * s_self / normal, near_weight(s_other) * s_other / normal};
+}
+
+template <int D>
 WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry, Band band) : has_band_(band == Band::listed) {
   row_.assign(static_cast<std::size_t>(t.num_cells()), -1);
+  face_column_.assign(static_cast<std::size_t>(t.num_cells()), 0);
+  const FaceColumn column = face_column();
+  auto same = [](double a, double b) { return std::abs(a - b) <= kSameColumn * std::abs(b); };
   start_.assign(1, 0);
   cut_cells_.assign(static_cast<std::size_t>(t.depth() + 1), {});
   band_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
-  cut_by_colour_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
+  lagged_by_colour_.assign(static_cast<std::size_t>(2 * (t.depth() + 1)), {});
   const std::span<const double> volume = geometry.volume();
   std::vector<CellFit> fits;
   for (int l = 0; l <= t.depth(); ++l) {
@@ -166,27 +183,37 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
     fits.assign(cuts.size(), {});
 #pragma omp parallel for schedule(dynamic, 64) if (n > kFitsParallelMin)
     for (Index i = 0; i < n; ++i) fits[static_cast<std::size_t>(i)] = fit_cut_cell(t, geometry, l, cuts[static_cast<std::size_t>(i)]);
+    auto colour_of = [&lv](Index c) {
+      return std::popcount(lv.keys[static_cast<std::size_t>(c - lv.base)] & (tree::kChildren<D> - 1)) & 1;
+    };
     for (std::size_t i = 0; i < cuts.size(); ++i) {
       const CellFit& fit = fits[i];
       if (!fit.flux) continue;
       const Index c = cuts[i];
       row_[static_cast<std::size_t>(c)] = static_cast<std::int32_t>(self_.size());
       cut_cells_[static_cast<std::size_t>(l)].push_back(c);
+      bool lagged = false;
       for (const auto& [k, w] : fit.others) {
         cell_.push_back(k);
         weight_.push_back(w);
+        lagged = lagged || (w != 0.0 && colour_of(k) == colour_of(c));
       }
+      if (lagged) lagged_by_colour_[static_cast<std::size_t>(2 * l + colour_of(c))].push_back(c);
+      const std::uint8_t flag = geometry.uniform()[static_cast<std::size_t>(c)];
+      if (closed_face_stencil(flag) && fit.others.size() == 1) {
+        const int opposite = (flag - kStencilClosedFace) ^ 1;
+        const double h2 = t.cell_size(l) * t.cell_size(l);
+        face_column_[static_cast<std::size_t>(c)] = fit.others[0].first == lv.face_row(c)[opposite] &&
+                                                    same(fit.self * h2, column.self) &&
+                                                    same(fit.others[0].second * h2, column.other);
+      }
+      lagged_.push_back(lagged);
       columns_ += fit.column;
       fallbacks_ += fit.fallback;
       self_.push_back(fit.self);
       wall_.push_back(-fit.total);
       start_.push_back(static_cast<std::int32_t>(cell_.size()));
     }
-    auto colour_of = [&lv](Index c) {
-      return std::popcount(lv.keys[static_cast<std::size_t>(c - lv.base)] & (tree::kChildren<D> - 1)) & 1;
-    };
-    for (const Index c : cut_cells_[static_cast<std::size_t>(l)])
-      cut_by_colour_[static_cast<std::size_t>(2 * l + colour_of(c))].push_back(c);
     if (!has_band_) continue;
     // The band: the cut cells and their neighbours with fluid, by colour.
     std::vector<Index> near(cut_cells_[static_cast<std::size_t>(l)]);

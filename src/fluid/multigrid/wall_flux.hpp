@@ -61,8 +61,13 @@ class WallFlux {
   }
   // The cut cells of level l (every active one with a wall).
   std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
-  // The same, of one red-black colour (a smoother's pass needs its own colour's only).
-  std::span<const Index> cut_cells(int l, int colour) const { return cut_by_colour_[static_cast<std::size_t>(2 * l + colour)]; }
+  // Whether cut cell c's stencil reads a cell of c's own red-black colour: a smoother's pass
+  // then takes that part at the values from before the pass (lagged), as those cells change
+  // during it. A stencil of the other colour only (a wall on a face, fitted on the column
+  // into the fluid) is read as the pass goes: those cells do not change in it.
+  bool lagged(Index c) const { return lagged_[static_cast<std::size_t>(row_[static_cast<std::size_t>(c)])] != 0; }
+  // The lagged cut cells of level l and one colour (a smoother's pass needs its own colour's only).
+  std::span<const Index> lagged_cells(int l, int colour) const { return lagged_by_colour_[static_cast<std::size_t>(2 * l + colour)]; }
   // The active cells of level l with fluid within the 3^D block of a cut cell, of one
   // red-black colour: where the walls' stencils make the smoothing slow, relaxed again.
   std::span<const Index> band(int l, int colour) const { return band_[static_cast<std::size_t>(2 * l + colour)]; }
@@ -75,13 +80,26 @@ class WallFlux {
   // takes the two cells on that line only (wall_flux.cpp, normal_column).
   std::int64_t columns() const { return columns_; }
 
+  // A wall on a face of a full cell (EmbeddedGeometry's kStencilClosedFace) fitted on the
+  // column into the fluid: its stencil is the same at every such cell and level, in units of
+  // 1/h^2, self * a_c + other * a_n with n the face neighbour opposite the wall.
+  struct FaceColumn {
+    double self = 0.0, other = 0.0;
+  };
+  static FaceColumn face_column();
+  // Whether c is a closed-face cell whose stencil is face_column()'s (to rounding): the
+  // smoother takes it from there, without reading the stencil.
+  bool face_column(Index c) const { return face_column_[static_cast<std::size_t>(c)] != 0; }
+
  private:
   std::vector<std::int32_t> row_;  // per cell slot: its stencil, or -1
   std::vector<std::int32_t> start_;
   std::vector<Index> cell_;
   std::vector<double> weight_, self_, wall_;
+  std::vector<std::uint8_t> lagged_;       // per stencil
+  std::vector<std::uint8_t> face_column_;  // per cell slot
   std::vector<std::vector<Index>> cut_cells_;
-  std::vector<std::vector<Index>> cut_by_colour_;
+  std::vector<std::vector<Index>> lagged_by_colour_;
   std::vector<std::vector<Index>> band_;
   bool has_band_ = false;
   std::int64_t fallbacks_ = 0;
