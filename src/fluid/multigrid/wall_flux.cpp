@@ -156,7 +156,7 @@ CellFit fit_cut_cell(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry
 template <int D>
 typename WallFlux<D>::FaceColumn WallFlux<D>::face_column() {
   // fit_cut_cell's column for a wall half a cell from the centre, |N| = h^(D-1): the points
-  // at -1/2 and -3/2 along the normal into the solid, each weighed omega s / sum omega s^2.
+  // at -1/2 and -3/2 along the normal into the solid, each weighted omega s / sum omega s^2.
   const double s_self = -0.5, s_other = -1.5;
   const double normal = near_weight(s_self) * s_self * s_self + near_weight(s_other) * s_other * s_other;
   return {near_weight(s_self) * s_self / normal, near_weight(s_other) * s_other / normal};
