@@ -173,7 +173,7 @@ void NavierStokes<D>::update_properties() {
         embedded_mu_faces_[i] = viscous_faces_[i] * (mu_faces_[i] / mu_);
       }
       const std::uint8_t open = c < open_uniform.size() ? open_uniform[c] : kStencilArrays;
-      const bool constant = open == kStencilUniform || closed_face_stencil(open);
+      const bool constant = constant_stencil(open);
       embedded_mu_uniform_[c] = open == kStencilEmpty ? kStencilEmpty : mu_uniform_[c] && constant ? open : kStencilArrays;
       // The constant stencils take the constant cell term rho / (theta dt) too.
       if (constant && !uniform_density_ && relative_density_[c] != 1.0) embedded_mu_uniform_[c] = kStencilArrays;
@@ -234,7 +234,7 @@ void NavierStokes<D>::stabilise_band(double h) {
       embedded_stabilising_faces_[i] = viscous_faces_[i] * (stabilising_faces_[i] / mu_);
     }
     const std::uint8_t flag = embedded_mu_uniform_[c];
-    const bool constant = flag == kStencilUniform || closed_face_stencil(flag);
+    const bool constant = constant_stencil(flag);
     embedded_stabilised_uniform_[c] = constant && !stabilised_uniform_[c] ? kStencilArrays : flag;
   }
   stabilised_cell_mu_ = std::move(mu_s);
@@ -256,7 +256,7 @@ void NavierStokes<D>::embedded_density() {
 #pragma omp parallel for schedule(static)
   for (std::size_t c = 0; c < slots; ++c) {
     const std::uint8_t open = c < open_uniform.size() ? open_uniform[c] : kStencilArrays;
-    bool constant = open == kStencilUniform || closed_face_stencil(open);
+    bool constant = constant_stencil(open);
     for (int k = 0; k < 2 * D; ++k) {
       const std::size_t i = c * 2 * D + static_cast<std::size_t>(k);
       embedded_alpha_faces_[i] = pressure_faces_[i] * options_.density * alpha_faces_[i];

@@ -53,6 +53,8 @@ inline constexpr std::uint8_t kStencilUniform = 1;
 inline constexpr std::uint8_t kStencilEmpty = 2;
 inline constexpr std::uint8_t kStencilClosedFace = 8;
 constexpr bool closed_face_stencil(std::uint8_t flag) { return flag >= kStencilClosedFace; }
+// The flags whose stencil takes the constant coefficients (uniform or closed-face).
+constexpr bool constant_stencil(std::uint8_t flag) { return flag == kStencilUniform || closed_face_stencil(flag); }
 
 // Embedded walls (multigrid/embedded_coefficients.hpp): the fluid's own coefficient `value`
 // on the uniform cells (every face open, no wall: EmbeddedGeometry::uniform), the array

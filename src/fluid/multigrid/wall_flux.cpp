@@ -183,6 +183,7 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
     fits.assign(cuts.size(), {});
 #pragma omp parallel for schedule(dynamic, 64) if (n > kFitsParallelMin)
     for (Index i = 0; i < n; ++i) fits[static_cast<std::size_t>(i)] = fit_cut_cell(t, geometry, l, cuts[static_cast<std::size_t>(i)]);
+    const double h2 = t.cell_size(l) * t.cell_size(l);
     auto colour_of = [&lv](Index c) {
       return std::popcount(lv.keys[static_cast<std::size_t>(c - lv.base)] & (tree::kChildren<D> - 1)) & 1;
     };
@@ -202,7 +203,6 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
       const std::uint8_t flag = geometry.uniform()[static_cast<std::size_t>(c)];
       if (closed_face_stencil(flag) && fit.others.size() == 1) {
         const int opposite = (flag - kStencilClosedFace) ^ 1;
-        const double h2 = t.cell_size(l) * t.cell_size(l);
         face_column_[static_cast<std::size_t>(c)] = fit.others[0].first == lv.face_row(c)[opposite] &&
                                                     same(fit.self * h2, column.self) &&
                                                     same(fit.others[0].second * h2, column.other);
