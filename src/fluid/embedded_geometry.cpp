@@ -2,6 +2,7 @@
 // consistent with the fine ones (why and how: embedded_geometry.hpp).
 #include "fluid/embedded_geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -115,7 +116,9 @@ void EmbeddedGeometry<D>::rebuild() {
   for (auto& x : wall_centroid_) x.assign(n, 0.0);
   for (auto& x : upper_) x.assign(n, 0.0);
   side_.assign(n, 0);
+  reused_cuts_ = evaluated_cuts_ = 0;
   for (int l = 0; l <= tree_.depth(); ++l) evaluate_level(l);
+  remember_cuts();
   // From the deepest level up, as Tree::restrict_and_exchange: a level's coarse values come
   // from the next level's, exchanged before, so that a parent whose children lie on several
   // ranks gets its owner's means (its own local subtree may stop at placeholder leaves).
@@ -189,6 +192,59 @@ void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
 }
 
 template <int D>
+bool EmbeddedGeometry<D>::take_known_cut(int l, tree::Key key, Index c) {
+  if (static_cast<std::size_t>(l) >= known_cuts_.size()) return false;
+  const std::vector<KnownCut>& known = known_cuts_[static_cast<std::size_t>(l)];
+  const auto it = std::lower_bound(known.begin(), known.end(), key,
+                                   [](const KnownCut& k, tree::Key x) { return k.key < x; });
+  if (it == known.end() || it->key != key) return false;
+  const auto s = static_cast<std::size_t>(c);
+  volume_[s] = it->volume;
+  wall_area_[s] = it->wall_area;
+  for (int d = 0; d < D; ++d) {
+    faces_[d][s] = it->face[static_cast<std::size_t>(2 * d)];
+    upper_[d][s] = it->face[static_cast<std::size_t>(2 * d + 1)];
+    wall_centroid_[d][s] = it->wall_centroid[static_cast<std::size_t>(d)];
+  }
+  return true;
+}
+
+template <int D>
+void EmbeddedGeometry<D>::remember_cuts() {
+  known_cuts_.assign(static_cast<std::size_t>(tree_.depth() + 1), {});
+  for (int l = 0; l <= tree_.depth(); ++l) {
+    const tree::Level<D>& lv = tree_.level(l);
+    std::vector<KnownCut>& known = known_cuts_[static_cast<std::size_t>(l)];
+    auto keep = [&](Index begin, Index end) {
+      for (Index i = begin; i < end; ++i) {
+        const auto s = static_cast<std::size_t>(lv.base + i);
+        if (side_[s] != 0) continue;  // inherited or beyond the reach: no cut was made
+        KnownCut k;
+        k.key = lv.keys[static_cast<std::size_t>(i)];
+        k.volume = volume_[s];
+        k.wall_area = wall_area_[s];
+        for (int d = 0; d < D; ++d) {
+          k.face[static_cast<std::size_t>(2 * d)] = faces_[d][s];
+          k.face[static_cast<std::size_t>(2 * d + 1)] = upper_[d][s];
+          k.wall_centroid[static_cast<std::size_t>(d)] = wall_centroid_[d][s];
+        }
+        known.push_back(k);
+      }
+    };
+    keep(0, lv.n_active);
+    const std::size_t active_cuts = known.size();
+    keep(lv.n_active, lv.n_active + lv.n_halo);
+    // Active cells come in key order, and so do the halo cells after them: then a merge.
+    auto by_key = [](const KnownCut& a, const KnownCut& b) { return a.key < b.key; };
+    const auto halo = known.begin() + static_cast<std::ptrdiff_t>(active_cuts);
+    if (std::is_sorted(known.begin(), halo, by_key) && std::is_sorted(halo, known.end(), by_key))
+      std::inplace_merge(known.begin(), halo, known.end(), by_key);
+    else
+      std::sort(known.begin(), known.end(), by_key);
+  }
+}
+
+template <int D>
 void EmbeddedGeometry<D>::evaluate_level(int l) {
   constexpr int C = tree::kChildren<D>;
   const tree::Level<D>& lv = tree_.level(l);
@@ -198,7 +254,8 @@ void EmbeddedGeometry<D>::evaluate_level(int l) {
   // box, corners included, strictly on one side.
   const double reach = 0.5 * h * std::sqrt(double(D)) * (1.0 + 1e-9);
   const Index base = lv.base, n_active = lv.n_active, n_halo = lv.n_halo, size = lv.size();
-#pragma omp parallel for schedule(dynamic, 256) if (size > tree::kParallelMin)
+  std::int64_t reused = 0, evaluated = 0;
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : reused, evaluated) if (size > tree::kParallelMin)
   for (Index i = 0; i < size; ++i) {
     const Index c = base + i;
     const auto s = static_cast<std::size_t>(c);
@@ -224,13 +281,20 @@ void EmbeddedGeometry<D>::evaluate_level(int l) {
     }
     side_[s] = inherited;
     if (inherited == 0) {
+      if (i < n_active + n_halo && take_known_cut(l, lv.keys[static_cast<std::size_t>(i)], c)) {
+        ++reused;
+        continue;
+      }
       cut_cell_at(c, l);
+      ++evaluated;
       continue;
     }
     const double full = inherited > 0 ? 1.0 : 0.0;
     volume_[s] = full;
     for (int d = 0; d < D; ++d) faces_[d][s] = upper_[d][s] = full;
   }
+  reused_cuts_ += reused;
+  evaluated_cuts_ += evaluated;
 }
 
 template <int D>

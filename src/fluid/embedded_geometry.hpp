@@ -42,8 +42,14 @@ class EmbeddedGeometry {
   // Evaluates `solid` on t. Collective on N ranks.
   EmbeddedGeometry(const tree::Tree<D>& t, geometry::SolidPtr solid);
 
-  // Evaluates again after the tree changed (an adaptation, a migration). Collective.
+  // Evaluates again after the tree changed (an adaptation, a migration). Collective. A cell
+  // whose box the last evaluation cut (the same level and key) takes that cut again instead
+  // of evaluating the solid at its corners: the same numbers, since a cut depends on the box
+  // and the solid only.
   void rebuild();
+  // How many cut slots the last rebuild took from the one before it, and how many it cut.
+  std::int64_t reused_cuts() const { return reused_cuts_; }
+  std::int64_t evaluated_cuts() const { return evaluated_cuts_; }
 
   const geometry::Solid& solid() const { return *solid_; }
   const tree::Tree<D>& tree() const { return tree_; }
@@ -85,6 +91,10 @@ class EmbeddedGeometry {
  private:
   // The corner values of cell c (wrapped along periodic directions), and its cut.
   void cut_cell_at(Index c, int l);
+  // Slot c of level l gets the last evaluation's cut of the same key, if it made one.
+  bool take_known_cut(int l, tree::Key key, Index c);
+  // Keeps the cut slots' values (before the coarse levels are made consistent) by key.
+  void remember_cuts();
   void evaluate_level(int l);
   // Level l's coarse faces and parents from the next level (final and exchanged).
   void make_coarse_consistent(int l);
@@ -102,6 +112,15 @@ class EmbeddedGeometry {
   std::vector<std::int8_t> side_;
   std::vector<std::uint8_t> uniform_;  // kStencil* (multigrid/coefficients.hpp)
   std::vector<std::vector<Index>> cut_cells_;
+  // A cut slot's own values (cut_cell_at), per level sorted by key.
+  struct KnownCut {
+    tree::Key key = 0;
+    double volume = 0.0, wall_area = 0.0;
+    std::array<double, 2 * D> face{};  // lower and upper along each direction
+    std::array<double, D> wall_centroid{};
+  };
+  std::vector<std::vector<KnownCut>> known_cuts_;
+  std::int64_t reused_cuts_ = 0, evaluated_cuts_ = 0;
 };
 
 extern template class EmbeddedGeometry<2>;

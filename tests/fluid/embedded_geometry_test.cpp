@@ -1,11 +1,13 @@
 // Embedded walls on the tree: the fluid volume and wall area of a sphere and a circle
 // converge at second order; every cell of every level keeps the discrete divergence theorem
 // and the coarse-fine consistency the operators need; an adaptive tree refined along the wall
-// gives the uniform tree's totals; the cells on both sides of a periodic seam see one wall.
+// gives the uniform tree's totals; the cells on both sides of a periodic seam see one wall; a
+// rebuild after an adaptation, which keeps the cuts it made before, is a fresh evaluation.
 #include "fluid/embedded_geometry.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -186,6 +188,55 @@ TEST(EmbeddedGeometry, BothSidesOfAPeriodicSeamSeeOneWall) {
   EXPECT_NEAR(a.fluid, b.fluid, 1e-12);
   EXPECT_NEAR(a.wall, b.wall, 1e-12);
   check_consistency(periodic, on_seam, /*adaptive=*/false);
+}
+
+TEST(EmbeddedGeometry, ARebuildAfterAnAdaptationIsAFreshEvaluationToTheBit) {
+  // Walls at level 6 for x < 0.5 and 5 beyond; then the level-5 cut leaves beyond x = 0.5
+  // refine (new cuts) and the level-6 leaves below x = 0.3 coarsen (cuts made before).
+  const auto solid = geometry::subtract(ball(0.5, 0.5, 0.5, 0.36), {ball(0.62, 0.41, 0.5, 0.2)});
+  tree::TreeOptions<3> o;
+  o.roots.fill(1);
+  o.max_level = 6;
+  Tree<3> t(o);
+  t.refine_to([&](const tree::Box<3>& b) {
+    Eigen::Vector3d centre;
+    double half = 0.0;
+    for (int d = 0; d < 3; ++d) {
+      centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
+      half += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
+    }
+    const bool near = std::abs(solid->signed_distance(centre)) <= std::sqrt(half) + 1.0 / 64;
+    return near ? (centre[0] < 0.5 ? 6 : 5) : 2;
+  });
+  EmbeddedGeometry<3> g(t, solid);
+  EXPECT_EQ(g.reused_cuts(), 0);
+  std::vector<std::int8_t> flags(static_cast<std::size_t>(t.num_cells()), 0);
+  for (const Index c : t.leaves()) {
+    const int l = t.level_of(c);
+    const double x = t.center(c)[0];
+    if (l == 5 && x > 0.5 && g.wall_area(c) > 0.0) flags[static_cast<std::size_t>(c)] = 1;
+    if (l == 6 && x < 0.3) flags[static_cast<std::size_t>(c)] = -1;
+  }
+  const tree::AdaptCounts counts = t.apply_flags(flags);
+  ASSERT_GT(counts.refined, 0);
+  ASSERT_GT(counts.coarsened, 0);
+  g.rebuild();
+  const EmbeddedGeometry<3> fresh(t, solid);
+  EXPECT_GT(g.reused_cuts(), 0);
+  EXPECT_GT(g.evaluated_cuts(), 0);
+  EXPECT_EQ(g.reused_cuts() + g.evaluated_cuts(), fresh.evaluated_cuts());
+  EXPECT_TRUE(std::equal(g.volume().begin(), g.volume().end(), fresh.volume().begin(), fresh.volume().end()));
+  for (int d = 0; d < 3; ++d) EXPECT_EQ(g.faces()[d], fresh.faces()[d]) << "direction " << d;
+  EXPECT_TRUE(
+      std::equal(g.uniform().begin(), g.uniform().end(), fresh.uniform().begin(), fresh.uniform().end()));
+  for (int l = 0; l <= t.depth(); ++l) {
+    ASSERT_TRUE(std::ranges::equal(g.cut_cells(l), fresh.cut_cells(l))) << "level " << l;
+    for (const Index c : g.cut_cells(l)) {
+      ASSERT_EQ(g.wall_area(c), fresh.wall_area(c));
+      ASSERT_EQ(g.wall_centroid(c), fresh.wall_centroid(c));
+      ASSERT_EQ(g.wall_normal_area(c), fresh.wall_normal_area(c));
+    }
+  }
 }
 
 TEST(EmbeddedGeometry, CellsFarFromTheWallAreFullOrEmpty) {

@@ -33,7 +33,9 @@ void embedded_cell_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double pinned = -1.0 / (t.cell_size(l) * t.cell_size(l));
-    for (Index c = lv.active_begin(); c < lv.active_end(); ++c) {
+    const Index begin = lv.active_begin(), end = lv.active_end();
+#pragma omp parallel for schedule(static) if (end - begin > tree::kParallelMin)
+    for (Index c = begin; c < end; ++c) {
       // A coarse cell may hold fluid behind faces that are all closed at its level (a pocket
       // inside it): no flux reaches it there, so it is pinned like a cell without fluid.
       const Index* row = lv.face_row(c);
