@@ -171,18 +171,23 @@ MultigridStats NavierStokes<D>::embedded_projection(FaceField<D>& uf, std::span<
 
 template <int D>
 void NavierStokes<D>::embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g) {
-  // The mean of the open faces' accelerations, weighted by their fluid fractions.
+  // The mean of the open faces' accelerations, weighted by their fluid fractions. A uniform
+  // cell (every face open) takes the brick's mean: the same bits, without reading its
+  // faces' fractions (the loop is memory-bound).
   const FaceField<D>& open = embedded_->faces();
+  const std::uint8_t* flag = embedded_->uniform().data();
   for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {
     const Index* row = tree_.level(l).face_row(c);
+    const bool uniform = flag[c] == kStencilUniform;
     for (int d = 0; d < D; ++d) {
       const Index up = row[2 * d + 1];
-      const double lower = open[d][c], upper = open[d][up];
       double g = 0.0;
-      // Both faces open (most cells): the brick's mean, the same bits as the weighted one
-      // without its division.
-      if (lower == 1.0 && upper == 1.0) g = 0.5 * (gf[d][c] + gf[d][up]);
-      else if (lower + upper > 0.0) g = (lower * gf[d][c] + upper * gf[d][up]) / (lower + upper);
+      if (uniform) {
+        g = 0.5 * (gf[d][c] + gf[d][up]);
+      } else {
+        const double weight = open[d][c] + open[d][up];
+        if (weight > 0.0) g = (open[d][c] * gf[d][c] + open[d][up] * gf[d][up]) / weight;
+      }
       tree_.values(g_[d])[c] = g;
       if (!only_g) tree_.values(u_[d])[c] += dt * g;
     }
