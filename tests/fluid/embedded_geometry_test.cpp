@@ -194,18 +194,8 @@ TEST(EmbeddedGeometry, ARebuildAfterAnAdaptationIsAFreshEvaluationToTheBit) {
   // Walls at level 6 for x < 0.5 and 5 beyond; then the level-5 cut leaves beyond x = 0.5
   // refine (new cuts) and the level-6 leaves below x = 0.3 coarsen (cuts made before).
   const auto solid = geometry::subtract(ball(0.5, 0.5, 0.5, 0.36), {ball(0.62, 0.41, 0.5, 0.2)});
-  tree::TreeOptions<3> o;
-  o.roots.fill(1);
-  o.max_level = 6;
-  Tree<3> t(o);
-  t.refine_to([&](const tree::Box<3>& b) {
-    Eigen::Vector3d centre;
-    double half = 0.0;
-    for (int d = 0; d < 3; ++d) {
-      centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
-      half += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
-    }
-    const bool near = std::abs(solid->signed_distance(centre)) <= std::sqrt(half) + 1.0 / 64;
+  Tree<3> t = testing::refined_by<3>(6, [&](const Eigen::Vector3d& centre, double half) {
+    const bool near = std::abs(solid->signed_distance(centre)) <= half + 1.0 / 64;
     return near ? (centre[0] < 0.5 ? 6 : 5) : 2;
   });
   EmbeddedGeometry<3> g(t, solid);

@@ -243,18 +243,7 @@ TEST(EmbeddedOperator, InjectedSolidHalosChangeNoNumber) {
   // prolongations to it read level-4 halos of solid cells, which keep their prolonged values.
   const auto solid = geometry::complement(geometry::box({-1.0, 0.2345, 0.25}, {2.0, 0.8125, 0.75}));
   const Eigen::Vector3d patch(0.5, 0.75, 0.5);
-  tree::TreeOptions<3> o;
-  o.roots.fill(1);
-  o.max_level = 5;
-  Tree<3> t(o);
-  t.refine_to([&](const tree::Box<3>& b) {
-    Eigen::Vector3d centre;
-    double half = 0.0;
-    for (int d = 0; d < 3; ++d) {
-      centre[d] = 0.5 * (b.lo[d] + b.hi[d]);
-      half += 0.25 * (b.hi[d] - b.lo[d]) * (b.hi[d] - b.lo[d]);
-    }
-    half = std::sqrt(half);
+  const Tree<3> t = testing::refined_by<3>(5, [&](const Eigen::Vector3d& centre, double half) {
     const double phi = solid->signed_distance(centre);
     if (phi <= 0.0) return 2;
     if ((centre - patch).norm() <= 0.08 + half) return 5;
