@@ -175,20 +175,44 @@ double EmbeddedGeometry<D>::corner_phi(std::array<std::int64_t, D> k, int l) con
 }
 
 template <int D>
+void EmbeddedGeometry<D>::store(Index c, const CutValues& v) {
+  const auto s = static_cast<std::size_t>(c);
+  volume_[s] = v.volume;
+  wall_area_[s] = v.wall_area;
+  for (int d = 0; d < D; ++d) {
+    faces_[d][s] = v.face[static_cast<std::size_t>(2 * d)];
+    upper_[d][s] = v.face[static_cast<std::size_t>(2 * d + 1)];
+    wall_centroid_[d][s] = v.wall_centroid[static_cast<std::size_t>(d)];
+  }
+}
+
+template <int D>
+typename EmbeddedGeometry<D>::CutValues EmbeddedGeometry<D>::values_at(Index c) const {
+  const auto s = static_cast<std::size_t>(c);
+  CutValues v;
+  v.volume = volume_[s];
+  v.wall_area = wall_area_[s];
+  for (int d = 0; d < D; ++d) {
+    v.face[static_cast<std::size_t>(2 * d)] = faces_[d][s];
+    v.face[static_cast<std::size_t>(2 * d + 1)] = upper_[d][s];
+    v.wall_centroid[static_cast<std::size_t>(d)] = wall_centroid_[d][s];
+  }
+  return v;
+}
+
+template <int D>
 void EmbeddedGeometry<D>::cut_cell_at(Index c, int l) {
   const tree::TreeOptions<D>& o = tree_.options();
   const double h = tree_.cell_size(l);
   const tree::Coords<D> ijk = slot_coords<D>(tree_.level(l), c);
   const geometry::CellCut<D> cut = geometry::cut_cell<D>(corner_values(c, l));
-  const auto s = static_cast<std::size_t>(c);
-  volume_[s] = cut.volume;
-  for (int d = 0; d < D; ++d) {
-    faces_[d][s] = cut.face[static_cast<std::size_t>(2 * d)];
-    upper_[d][s] = cut.face[static_cast<std::size_t>(2 * d + 1)];
-  }
-  wall_area_[s] = cut.wall_area * std::pow(h, D - 1);
+  CutValues v;
+  v.volume = cut.volume;
+  v.face = cut.face;
+  v.wall_area = cut.wall_area * std::pow(h, D - 1);
   for (int d = 0; d < D; ++d)
-    wall_centroid_[d][s] = o.origin[d] + (ijk[d] + cut.wall_centroid[static_cast<std::size_t>(d)]) * h;
+    v.wall_centroid[static_cast<std::size_t>(d)] = o.origin[d] + (ijk[d] + cut.wall_centroid[static_cast<std::size_t>(d)]) * h;
+  store(c, v);
 }
 
 template <int D>
@@ -198,14 +222,7 @@ bool EmbeddedGeometry<D>::take_known_cut(int l, tree::Key key, Index c) {
   const auto it = std::lower_bound(known.begin(), known.end(), key,
                                    [](const KnownCut& k, tree::Key x) { return k.key < x; });
   if (it == known.end() || it->key != key) return false;
-  const auto s = static_cast<std::size_t>(c);
-  volume_[s] = it->volume;
-  wall_area_[s] = it->wall_area;
-  for (int d = 0; d < D; ++d) {
-    faces_[d][s] = it->face[static_cast<std::size_t>(2 * d)];
-    upper_[d][s] = it->face[static_cast<std::size_t>(2 * d + 1)];
-    wall_centroid_[d][s] = it->wall_centroid[static_cast<std::size_t>(d)];
-  }
+  store(c, it->values);
   return true;
 }
 
@@ -219,16 +236,7 @@ void EmbeddedGeometry<D>::remember_cuts() {
       for (Index i = begin; i < end; ++i) {
         const auto s = static_cast<std::size_t>(lv.base + i);
         if (side_[s] != 0) continue;  // inherited or beyond the reach: no cut was made
-        KnownCut k;
-        k.key = lv.keys[static_cast<std::size_t>(i)];
-        k.volume = volume_[s];
-        k.wall_area = wall_area_[s];
-        for (int d = 0; d < D; ++d) {
-          k.face[static_cast<std::size_t>(2 * d)] = faces_[d][s];
-          k.face[static_cast<std::size_t>(2 * d + 1)] = upper_[d][s];
-          k.wall_centroid[static_cast<std::size_t>(d)] = wall_centroid_[d][s];
-        }
-        known.push_back(k);
+        known.push_back({lv.keys[static_cast<std::size_t>(i)], values_at(lv.base + i)});
       }
     };
     keep(0, lv.n_active);

@@ -89,6 +89,14 @@ class EmbeddedGeometry {
   std::span<const Index> cut_cells(int l) const { return cut_cells_[static_cast<std::size_t>(l)]; }
 
  private:
+  // A cut slot's own values (before the coarse levels are made consistent).
+  struct CutValues {
+    double volume = 0.0, wall_area = 0.0;
+    std::array<double, 2 * D> face{};  // lower and upper along each direction
+    std::array<double, D> wall_centroid{};
+  };
+  void store(Index c, const CutValues& v);
+  CutValues values_at(Index c) const;
   // The corner values of cell c (wrapped along periodic directions), and its cut.
   void cut_cell_at(Index c, int l);
   // Slot c of level l gets the last evaluation's cut of the same key, if it made one.
@@ -112,12 +120,10 @@ class EmbeddedGeometry {
   std::vector<std::int8_t> side_;
   std::vector<std::uint8_t> uniform_;  // kStencil* (multigrid/coefficients.hpp)
   std::vector<std::vector<Index>> cut_cells_;
-  // A cut slot's own values (cut_cell_at), per level sorted by key.
+  // The last evaluation's cuts, per level sorted by key.
   struct KnownCut {
     tree::Key key = 0;
-    double volume = 0.0, wall_area = 0.0;
-    std::array<double, 2 * D> face{};  // lower and upper along each direction
-    std::array<double, D> wall_centroid{};
+    CutValues values;
   };
   std::vector<std::vector<KnownCut>> known_cuts_;
   std::int64_t reused_cuts_ = 0, evaluated_cuts_ = 0;

@@ -495,18 +495,28 @@ void NavierStokes<D>::centred_gradient(double dt, bool only_g) {
     });
   });
   restrict_faces<D>(tree_, gf, open_faces());
-  if (embedded_) {
-    embedded_centred_gradient(gf, dt, only_g);
-  } else {
-    for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {  // the ghosts' come by the exchange below
-      const Index* row = tree_.level(l).face_row(c);
-      for (int d = 0; d < D; ++d) {
-        const double g = 0.5 * (gf[d][c] + gf[d][row[2 * d + 1]]);
-        tree_.values(g_[d])[c] = g;
-        if (!only_g) tree_.values(u_[d])[c] += dt * g;
+  // With embedded walls, the mean of the open faces' accelerations weighted by their fluid
+  // fractions; a cell with every face open (kStencilUniform) takes the plain mean, the same
+  // bits, without reading its faces' fractions (the loop is memory-bound).
+  const FaceField<D>* open = embedded_ ? &embedded_->faces() : nullptr;
+  const std::uint8_t* flag = embedded_ ? embedded_->uniform().data() : nullptr;
+  for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {  // the ghosts' come by the exchange below
+    const Index* row = tree_.level(l).face_row(c);
+    const bool plain = !flag || flag[c] == kStencilUniform;
+    for (int d = 0; d < D; ++d) {
+      const Index up = row[2 * d + 1];
+      double g = 0.0;
+      if (plain) {
+        g = 0.5 * (gf[d][c] + gf[d][up]);
+      } else {
+        const FaceField<D>& f = *open;
+        const double weight = f[d][c] + f[d][up];
+        if (weight > 0.0) g = (f[d][c] * gf[d][c] + f[d][up] * gf[d][up]) / weight;
       }
-    });
-  }
+      tree_.values(g_[d])[c] = g;
+      if (!only_g) tree_.values(u_[d])[c] += dt * g;
+    }
+  });
   // Distributed: a ghost's faces may lie past the ghost layer; its owner's values instead
   // (g and u in one message per neighbour rank).
   std::array<std::span<double>, 2 * D> gu;

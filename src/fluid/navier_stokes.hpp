@@ -349,7 +349,6 @@ class NavierStokes {
   // the viscous cell term's densities.
   void embedded_density();
   MultigridStats embedded_projection(FaceField<D>& uf, std::span<double> p, double dt, const MultigridOptions& opt);
-  void embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g);
   // The advection's source g + (mu/rho) lap u_d with embedded walls, on the owned leaves.
   void embedded_viscous_source(int d, std::span<const double> u, std::span<const double> g, std::vector<double>& src);
   // The least fluid fraction the advection divides a cell's balance by (ns_advection.cpp).

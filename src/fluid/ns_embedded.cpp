@@ -169,31 +169,6 @@ MultigridStats NavierStokes<D>::embedded_projection(FaceField<D>& uf, std::span<
   return s;
 }
 
-template <int D>
-void NavierStokes<D>::embedded_centred_gradient(const FaceField<D>& gf, double dt, bool only_g) {
-  // The mean of the open faces' accelerations, weighted by their fluid fractions. A uniform
-  // cell (every face open) takes the brick's mean: the same bits, without reading its
-  // faces' fractions (the loop is memory-bound).
-  const FaceField<D>& open = embedded_->faces();
-  const std::uint8_t* flag = embedded_->uniform().data();
-  for_each_owned_leaf_level<D>(tree_, [&](Index c, int l, double) {
-    const Index* row = tree_.level(l).face_row(c);
-    const bool uniform = flag[c] == kStencilUniform;
-    for (int d = 0; d < D; ++d) {
-      const Index up = row[2 * d + 1];
-      double g = 0.0;
-      if (uniform) {
-        g = 0.5 * (gf[d][c] + gf[d][up]);
-      } else {
-        const double weight = open[d][c] + open[d][up];
-        if (weight > 0.0) g = (open[d][c] * gf[d][c] + open[d][up] * gf[d][up]) / weight;
-      }
-      tree_.values(g_[d])[c] = g;
-      if (!only_g) tree_.values(u_[d])[c] += dt * g;
-    }
-  });
-}
-
 template void NavierStokes<2>::set_solid(geometry::SolidPtr);
 template void NavierStokes<3>::set_solid(geometry::SolidPtr);
 template NavierStokes<2>::EmbeddedViscous NavierStokes<2>::embedded_viscous() const;
@@ -204,7 +179,5 @@ template MultigridStats NavierStokes<2>::embedded_viscous_solve(int, double, dou
 template MultigridStats NavierStokes<3>::embedded_viscous_solve(int, double, double);
 template MultigridStats NavierStokes<2>::embedded_projection(FaceField<2>&, std::span<double>, double, const MultigridOptions&);
 template MultigridStats NavierStokes<3>::embedded_projection(FaceField<3>&, std::span<double>, double, const MultigridOptions&);
-template void NavierStokes<2>::embedded_centred_gradient(const FaceField<2>&, double, bool);
-template void NavierStokes<3>::embedded_centred_gradient(const FaceField<3>&, double, bool);
 
 }  // namespace capsflow::fluid
