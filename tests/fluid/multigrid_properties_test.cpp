@@ -84,6 +84,19 @@ TEST(MultigridJump, ThousandfoldCoefficientJumpAcrossASphere) {
   EXPECT_LE(cycles[1], 2 * cycles[0]);
 }
 
+// A system already solved (zero right-hand side, zero start) with a cycle forced by
+// min_cycles: the Krylov direction is zero, and its step must not be 0 / 0 (it was NaN).
+TEST(MultigridKrylov, ASolvedSystemStaysSolvedWhenACycleIsForced) {
+  Tree<2> t = refined_ball<2>(6);
+  EllipticOperator<2, ConstantFaces, ConstantCells> op(t, {1.0}, {-100.0}, BoundaryConditions<2>::all(BcKind::dirichlet));
+  std::vector<double> a(t.num_cells(), 0.0), b(t.num_cells(), 0.0);
+  MultigridWorkspace ws;
+  const auto stats = solve(op, a, b, ws, {.tolerance = 1e-8, .min_cycles = 1, .krylov = true});
+  EXPECT_TRUE(stats.converged);
+  EXPECT_EQ(stats.final_residual, 0.0);
+  for (const auto c : t.leaves()) ASSERT_EQ(a[c], 0.0) << "leaf " << c;
+}
+
 // sum over leaves of h^D L(a) equals the flux through the walls exactly, for any a, on an
 // adaptive grid: what leaves a fine cell across a resolution jump enters the coarse one.
 template <int D>

@@ -245,6 +245,9 @@ MultigridStats solve(const Op& op, std::span<double> a, std::span<const double> 
       t.sync_leaf_neighbors(p, op.correction_bc(), tree::Prolongation::quadratic, op.injected_halos());
       op.apply_leaves(p, q);  // L0 p: p's boundary cells hold homogeneous values
       pq_old = detail::leaf_dot<D>(t, p, q);
+      // p = 0: the residual was zero (a cycle forced by min_cycles on a solved system);
+      // the step would be 0 / 0.
+      if (pq_old == 0.0) break;
       const double step = detail::leaf_dot<D>(t, p, res) / pq_old;
       t.for_each_leaf([&](tree::Index c) { a[c] += step * p[c]; });
     }
