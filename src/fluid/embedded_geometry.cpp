@@ -109,13 +109,20 @@ tree::Point<D> EmbeddedGeometry<D>::wall_centroid(Index c) const {
 
 template <int D>
 void EmbeddedGeometry<D>::rebuild() {
+  // evaluate_level writes every slot of every level (levels 0 to depth hold them all), so
+  // the arrays are not filled first: serial passes over a million slots, a fifth of the
+  // rebuild on the seed case.
+  const tree::Level<D>& last = tree_.level(tree_.depth());
+  CAPSFLOW_ASSERT(last.base + last.size() == tree_.num_cells(), "EmbeddedGeometry::rebuild: cell slots outside the levels");
   const auto n = static_cast<std::size_t>(tree_.num_cells());
-  volume_.assign(n, 1.0);
-  resize<D>(faces_, tree_);
-  wall_area_.assign(n, 0.0);
-  for (auto& x : wall_centroid_) x.assign(n, 0.0);
-  for (auto& x : upper_) x.assign(n, 0.0);
-  side_.assign(n, 0);
+  volume_.resize(n);
+  wall_area_.resize(n);
+  side_.resize(n);
+  for (int d = 0; d < D; ++d) {
+    faces_[d].resize(n);
+    wall_centroid_[d].resize(n);
+    upper_[d].resize(n);
+  }
   reused_cuts_ = evaluated_cuts_ = 0;
   for (int l = 0; l <= tree_.depth(); ++l) evaluate_level(l);
   remember_cuts();
@@ -299,7 +306,11 @@ void EmbeddedGeometry<D>::evaluate_level(int l) {
     }
     const double full = inherited > 0 ? 1.0 : 0.0;
     volume_[s] = full;
-    for (int d = 0; d < D; ++d) faces_[d][s] = upper_[d][s] = full;
+    wall_area_[s] = 0.0;
+    for (int d = 0; d < D; ++d) {
+      faces_[d][s] = upper_[d][s] = full;
+      wall_centroid_[d][s] = 0.0;
+    }
   }
   reused_cuts_ += reused;
   evaluated_cuts_ += evaluated;

@@ -1,21 +1,40 @@
 // Coefficients weighted by the fluid fractions (why: embedded_coefficients.hpp).
 #include "fluid/multigrid/embedded_coefficients.hpp"
 
+#include <algorithm>
+
+#include "common/assert.hpp"
+
 namespace capsflow::fluid {
+namespace {
+// Whether levels 0 to depth hold every cell slot (their halo and boundary cells included).
+template <int D>
+bool levels_cover_the_slots(const tree::Tree<D>& t) {
+  const tree::Level<D>& last = t.level(t.depth());
+  return last.base + last.size() == t.num_cells();
+}
+}  // namespace
 
 template <int D>
 void embedded_face_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double alpha,
                                 std::vector<double>& out) {
-  out.assign(static_cast<std::size_t>(t.num_cells()) * 2 * D, 0.0);
+  // Every slot is written below, the halo and boundary cells' with 0, instead of a fill
+  // first (a serial pass over 2D values per slot).
+  CAPSFLOW_ASSERT(levels_cover_the_slots(t), "embedded_face_coefficients: cell slots outside the levels");
+  out.resize(static_cast<std::size_t>(t.num_cells()) * 2 * D);
   const FaceField<D>& f = g.faces();
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
-    const Index n = lv.n_active, base = lv.base;
-#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
-    for (Index i = 0; i < n; ++i) {
+    const Index n = lv.n_active, base = lv.base, size = lv.size();
+#pragma omp parallel for schedule(static) if (size > tree::kParallelMin)
+    for (Index i = 0; i < size; ++i) {
       const Index c = base + i;
-      const Index* row = lv.face_row(c);
       double* o = out.data() + static_cast<std::size_t>(c) * 2 * D;
+      if (i >= n) {
+        std::fill_n(o, 2 * D, 0.0);
+        continue;
+      }
+      const Index* row = lv.face_row(c);
       for (int d = 0; d < D; ++d) {
         o[2 * d] = alpha * f[d][static_cast<std::size_t>(c)];
         o[2 * d + 1] = alpha * f[d][static_cast<std::size_t>(row[2 * d + 1])];
@@ -27,13 +46,15 @@ void embedded_face_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D
 template <int D>
 void embedded_cell_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double lambda,
                                 std::vector<double>& out, std::span<const double> scale) {
-  out.assign(static_cast<std::size_t>(t.num_cells()), 0.0);
+  CAPSFLOW_ASSERT(levels_cover_the_slots(t), "embedded_cell_coefficients: cell slots outside the levels");
+  out.resize(static_cast<std::size_t>(t.num_cells()));  // every slot written below, as above
   const std::span<const double> volume = g.volume();
   const FaceField<D>& f = g.faces();
   for (int l = 0; l <= t.depth(); ++l) {
     const tree::Level<D>& lv = t.level(l);
     const double pinned = -1.0 / (t.cell_size(l) * t.cell_size(l));
     const Index begin = lv.active_begin(), end = lv.active_end();
+    std::fill(out.begin() + end, out.begin() + lv.base + lv.size(), 0.0);  // halo and boundary cells
 #pragma omp parallel for schedule(static) if (end - begin > tree::kParallelMin)
     for (Index c = begin; c < end; ++c) {
       // A coarse cell may hold fluid behind faces that are all closed at its level (a pocket
