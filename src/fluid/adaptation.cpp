@@ -89,7 +89,7 @@ template <int D>
 tree::AdaptCounts Adaptation<D>::refine_initial() {
   if (!options_.enabled) {
     const int top = ns_.tree().max_level();
-    return ns_.tree().refine_to([top](const tree::Box<D>&) { return top; });
+    return ns_.refine_to([top](const tree::Box<D>&) { return top; });  // the walls made again too
   }
   if (bodies_) bodies_->update_region();
   last_ = forced_passes();

@@ -643,13 +643,25 @@ tree::AdaptCounts NavierStokes<D>::adapt(double tolerance, tree::AdaptOptions<D>
   }
   // N ranks: no rank refined or merged, so no rank rebuilt (DistributedForest::adapt).
   if (keep_distributed && tree_.global_sum(std::int64_t{counts.refined + counts.coarsened}) == 0) return counts;
+  tree_changed();
+  if (keep) carry_faces_through_adapt();
+  if (keep_distributed) carry_faces_in_fields();
+  return counts;
+}
+
+template <int D>
+tree::AdaptCounts NavierStokes<D>::refine_to(const std::function<int(const tree::Box<D>&)>& required_level) {
+  const tree::AdaptCounts counts = tree_.refine_to(required_level);
+  tree_changed();
+  return counts;
+}
+
+template <int D>
+void NavierStokes<D>::tree_changed() {
   resize_scratch();
   faces_current_ = false;
   faces_carried_ = false;
   if (embedded_) rebuild_embedded();
-  if (keep) carry_faces_through_adapt();
-  if (keep_distributed) carry_faces_in_fields();
-  return counts;
 }
 
 template <int D>

@@ -254,6 +254,9 @@ class NavierStokes {
   // carrying every field; returns the tree's counts. With relative > 0 the tolerance is
   // velocity_tolerance(tolerance, relative).
   tree::AdaptCounts adapt(double tolerance, tree::AdaptOptions<D> options, double relative = 0.0);
+  // Refines the tree to required_level (Tree::refine_to: forced levels only), carrying every
+  // field, and rebuilds what depends on the tree (the embedded walls) as adapt does.
+  tree::AdaptCounts refine_to(const std::function<int(const tree::Box<D>&)>& required_level);
   // The wavelet tolerance of an adapt: min(tolerance, relative max|u|) for relative > 0, but
   // at least 1e-3 tolerance, so that round-off in a fluid at rest refines nothing. A fixed
   // tolerance lets the grid coarsen as a flow decays (a relaxing capsule: max|u| falls
@@ -282,6 +285,9 @@ class NavierStokes {
 
  private:
   void resize_scratch();
+  // After the tree changed: the scratch arrays, the faces (no longer projected ones) and the
+  // embedded walls made again for the new cells.
+  void tree_changed();
   void sync_velocity();
   int project(FaceField<D>& uf, tree::FieldId p, double dt, const MultigridOptions& opt, StepStats& stats);
   void face_average_of_velocity(FaceField<D>& uf);

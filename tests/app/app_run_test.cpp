@@ -613,5 +613,32 @@ TEST(AppStepControl, RestartWithBdf2RepeatsTheRunExactly) {
   expect_run_restarts_exactly(dir, base, 12, "checkpoint_000006.h5");
 }
 
+// --adapt off with embedded walls: the walls were made on the coarse tree before the uniform
+// refinement and not again (the run read past their arrays: a segmentation fault). The
+// uniform run at level 4 must equal the adaptive one held at level 4 (min_level = max_level)
+// in every diagnostic but the wall time.
+TEST(AppRun, AdaptOffWithEmbeddedWallsEqualsTheAdaptiveRunOnTheSameUniformTree) {
+  const fs::path dir = scratch("adapt_off_walls");
+  const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
+                           "/constriction_stokes.toml --quiet --set adapt.max_level=4 --set adapt.wall_level=4 "
+                           "--set time.t_end=0.03 --set output.interval=1000 ";
+  const auto off = capsflow(base + "--adapt off --out " + (dir / "off").string(), dir);
+  ASSERT_EQ(off.status, 0) << off.err;
+  const auto on = capsflow(base + "--adapt on --set adapt.min_level=4 --out " + (dir / "on").string(), dir);
+  ASSERT_EQ(on.status, 0) << on.err;
+  const auto a = rows_of(dir / "off" / "diagnostics.csv"), b = rows_of(dir / "on" / "diagnostics.csv");
+  ASSERT_EQ(a.size(), 4u);  // header + 3 steps
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a[0][3], "cells");
+  ASSERT_EQ(a[0][9], "vmax");
+  EXPECT_EQ(std::stod(a[1][3]), 4 * 16 * 16 * 16);
+  EXPECT_GT(std::stod(a.back()[9]), 3.0);  // the throat's jet (five times the mean at steady state)
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (std::size_t k = 0; k < a[i].size(); ++k) {
+      if (a[0][k] == "wall_s") continue;
+      EXPECT_EQ(a[i][k], b[i][k]) << "row " << i << " column " << a[0][k];
+    }
+}
+
 }  // namespace
 }  // namespace capsflow::app
