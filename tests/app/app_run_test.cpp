@@ -39,6 +39,17 @@ std::vector<std::vector<std::string>> rows_of(const fs::path& csv) {
   return out;
 }
 
+// The diagnostics of `base` run with --adapt on (and `on_sets`) and with --adapt off, each
+// run asserted to succeed.
+std::pair<std::vector<std::vector<std::string>>, std::vector<std::vector<std::string>>> adapt_on_and_off(
+    const fs::path& dir, const std::string& base, const std::string& on_sets = "") {
+  const auto on = capsflow(base + "--adapt on " + on_sets + " --out " + (dir / "on").string(), dir);
+  EXPECT_EQ(on.status, 0) << on.err;
+  const auto off = capsflow(base + "--adapt off --out " + (dir / "off").string(), dir);
+  EXPECT_EQ(off.status, 0) << off.err;
+  return {rows_of(dir / "on" / "diagnostics.csv"), rows_of(dir / "off" / "diagnostics.csv")};
+}
+
 // A case run for 4 steps with snapshots at 0 and 4.
 std::string fmt_args(const std::string& name, const fs::path& dir) {
   return "run " + std::string(CAPSFLOW_CASES_DIR) + "/" + name + ".toml --quiet --set time.cfl=0 --set time.dt=0.005 " +
@@ -424,11 +435,8 @@ TEST(AppCapsule, AdaptOnAndOffAgreeAndAdaptiveUsesFewerCells) {
                            "/relaxation_quick.toml --quiet --set adapt.wall_level=3 "
                            "--set time.dt=0.002 --set capsule[0].nodes=642 --set time.t_end=0.1 "
                            "--set output.interval=1000 --set output.diagnostics_interval=5 ";
-  const auto on = capsflow(base + "--adapt on --out " + (dir / "on").string(), dir);
-  ASSERT_EQ(on.status, 0) << on.err;
-  const auto off = capsflow(base + "--adapt off --out " + (dir / "off").string(), dir);
-  ASSERT_EQ(off.status, 0) << off.err;
-  const auto a = rows_of(dir / "on" / "diagnostics.csv"), u = rows_of(dir / "off" / "diagnostics.csv");
+  const auto [a, u] = adapt_on_and_off(dir, base);
+  ASSERT_FALSE(::testing::Test::HasFailure());
   ASSERT_EQ(a.size(), u.size());
   ASSERT_EQ(a.size(), 11u);  // header + a row every 5 of the 50 steps
   ASSERT_EQ(a[0][3], "cells");
@@ -622,11 +630,8 @@ TEST(AppRun, AdaptOffWithEmbeddedWallsEqualsTheAdaptiveRunOnTheSameUniformTree) 
   const std::string base = "run " + std::string(CAPSFLOW_CASES_DIR) +
                            "/constriction_stokes.toml --quiet --set adapt.max_level=4 --set adapt.wall_level=4 "
                            "--set time.t_end=0.03 --set output.interval=1000 ";
-  const auto off = capsflow(base + "--adapt off --out " + (dir / "off").string(), dir);
-  ASSERT_EQ(off.status, 0) << off.err;
-  const auto on = capsflow(base + "--adapt on --set adapt.min_level=4 --out " + (dir / "on").string(), dir);
-  ASSERT_EQ(on.status, 0) << on.err;
-  const auto a = rows_of(dir / "off" / "diagnostics.csv"), b = rows_of(dir / "on" / "diagnostics.csv");
+  const auto [b, a] = adapt_on_and_off(dir, base, "--set adapt.min_level=4");
+  ASSERT_FALSE(::testing::Test::HasFailure());
   ASSERT_EQ(a.size(), 4u);  // header + 3 steps
   ASSERT_EQ(a.size(), b.size());
   ASSERT_EQ(a[0][3], "cells");
