@@ -9,8 +9,8 @@ carrying Poiseuille flow of mean velocity V (Stokes flow) moves at
 
     U / V = 2 (1 - 2/3 lam^2 - 0.20217 lam^5) / (1 - 0.75857 lam^5),   lam = a / R
 
-(Haberman & Sayre 1958, David Taylor Model Basin report 1143; Happel & Brenner, "Low Reynolds
-number hydrodynamics", 1965, section 7-4). Its lam^2 term is Faxen's law, u(0) + a^2/6 lap u.
+(Haberman & Sayre 1958, David Taylor Model Basin report 1143; the "lag coefficient" of
+hindered transport in pores). Its lam^2 term is Faxen's law, u(0) + a^2/6 lap u.
 A capsule whose membrane is stiff (small Ca) is that sphere.
 
 CASE is such a capsule in an embedded tube (cases/tube_sphere_stokes.toml: lam = 0.5, Ca =

@@ -3,24 +3,13 @@
 
 #include <algorithm>
 
-#include "common/assert.hpp"
-
 namespace capsflow::fluid {
-namespace {
-// Whether levels 0 to depth hold every cell slot (their halo and boundary cells included).
-template <int D>
-bool levels_cover_the_slots(const tree::Tree<D>& t) {
-  const tree::Level<D>& last = t.level(t.depth());
-  return last.base + last.size() == t.num_cells();
-}
-}  // namespace
 
 template <int D>
 void embedded_face_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double alpha,
                                 std::vector<double>& out) {
-  // Every slot is written below, the halo and boundary cells' with 0, instead of a fill
-  // first (a serial pass over 2D values per slot).
-  CAPSFLOW_ASSERT(levels_cover_the_slots(t), "embedded_face_coefficients: cell slots outside the levels");
+  // Every slot (the levels' active, halo and boundary cells: tree.hpp) is written below, the
+  // halo and boundary cells' with 0, instead of a fill first (a serial pass over them all).
   out.resize(static_cast<std::size_t>(t.num_cells()) * 2 * D);
   const FaceField<D>& f = g.faces();
   for (int l = 0; l <= t.depth(); ++l) {
@@ -46,7 +35,6 @@ void embedded_face_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D
 template <int D>
 void embedded_cell_coefficients(const tree::Tree<D>& t, const EmbeddedGeometry<D>& g, double lambda,
                                 std::vector<double>& out, std::span<const double> scale) {
-  CAPSFLOW_ASSERT(levels_cover_the_slots(t), "embedded_cell_coefficients: cell slots outside the levels");
   out.resize(static_cast<std::size_t>(t.num_cells()));  // every slot written below, as above
   const std::span<const double> volume = g.volume();
   const FaceField<D>& f = g.faces();
