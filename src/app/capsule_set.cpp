@@ -144,12 +144,12 @@ CapsuleDiagnostics CapsuleSet::diagnostics(int k) const {
   const bool moved = c.velocity.cols() == c.x.cols();
   return {s.d12, s.d12_bbox, (s.area - reference_area_[i]) / reference_area_[i],
           (s.volume - reference_volume_[i]) / reference_volume_[i], s.centroid, membrane::inclination_xy(s),
-          moved ? membrane::tank_treading_rate(s, c.x, c.velocity) : 0.0};
+          moved ? membrane::tank_treading_rate(s, c.x, c.velocity) : 0.0, s.extent};
 }
 
 std::vector<std::string> CapsuleSet::columns() {
   return {"step", "t", "capsule", "D12", "D12_bbox", "area_rel", "volume_rel", "x", "y", "z",
-          "E_membrane", "P_nodes", "W_membrane", "inclination", "omega_z"};
+          "E_membrane", "P_nodes", "W_membrane", "inclination", "omega_z", "Lx", "Ly", "Lz"};
 }
 
 std::vector<double> CapsuleSet::rows(long step, double t) const {
@@ -161,7 +161,8 @@ std::vector<double> CapsuleSet::rows(long step, double t) const {
       const double energy = coupling_->membrane_energy(k);
       mine.insert(mine.end(), {double(step), t, double(k), m.d12, m.d12_bbox, m.area_rel, m.volume_rel, m.centroid.x(),
                                m.centroid.y(), m.centroid.z(), energy, coupling_->node_power(k),
-                               coupling_->capsule(k).work, m.inclination, m.omega_z});
+                               coupling_->capsule(k).work, m.inclination, m.omega_z, m.extent.x(),
+                               m.extent.y(), m.extent.z()});
     }
   });
   if (!comm_.distributed()) return mine;
@@ -185,7 +186,8 @@ std::vector<double> CapsuleSet::rows(long step, double t) const {
 }
 
 CapsuleDiagnostics CapsuleSet::from_row(std::span<const double> row) {
-  return {row[3], row[4], row[5], row[6], Eigen::Vector3d(row[7], row[8], row[9]), row[13], row[14]};
+  return {row[3], row[4], row[5], row[6], Eigen::Vector3d(row[7], row[8], row[9]), row[13], row[14],
+          Eigen::Vector3d(row[15], row[16], row[17])};
 }
 
 void CapsuleSet::snapshot(const std::filesystem::path& dir, long step, double t, io::PvdSeries* series) const {

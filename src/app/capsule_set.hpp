@@ -22,6 +22,7 @@ struct CapsuleDiagnostics {
   // inclination to x over pi, and the membrane's tank-treading rate about z (Keller-Skalak's
   // phase rate; 0 before the first step).
   double inclination = 0.0, omega_z = 0.0;
+  Eigen::Vector3d extent = Eigen::Vector3d::Zero();  // the nodes' bounding box: Lx, Ly, Lz
 };
 
 class CapsuleSet {
@@ -41,7 +42,7 @@ class CapsuleSet {
   // capsules.csv: one row per capsule and output step, in the order of columns(): its shape
   // (as diagnostics()), centroid, energy (membrane energy, node power F . V, the work
   // of its membrane on the fluid since the run began; app/energy_budget.hpp), then its
-  // inclination and rotation rate in the x-y plane.
+  // inclination and rotation rate in the x-y plane, then its nodes' bounding box Lx, Ly, Lz.
   [[nodiscard]] static std::vector<std::string> columns();
   // The rows of every capsule, one after another in capsule order, on rank 0 (empty on the
   // others): each owner measures its capsules. Throws std::runtime_error (naming the step)

@@ -175,6 +175,7 @@ ShapeDiagnostics shape_diagnostics(const Mesh& mesh, const Eigen::Matrix3Xd& x) 
   }
   d.d12 = (d.semi_axes[0] - d.semi_axes[2]) / (d.semi_axes[0] + d.semi_axes[2]);
   d.d12_bbox = bounding_box_d12(x);
+  d.extent = x.rowwise().maxCoeff() - x.rowwise().minCoeff();
   return d;
 }
 

@@ -17,7 +17,8 @@
 // Inertia ellipsoid: the ellipsoid with the same second moments J = int (x-c)(x-c)^T dV;
 // its semi-axes are L_k = sqrt(5 mu_k / V) (mu_k eigenvalues of J) and D12 = (Lmax - Lmin) /
 // (Lmax + Lmin). The seed's bounding-box variant: D12_bbox = (Lx - Ly)/(Lx + Ly) with
-// Lx = max x - min x, Ly = max y - min y over the nodes.
+// Lx = max x - min x, Ly = max y - min y over the nodes; extent = (Lx, Ly, Lz), the lengths
+// a capsule in a channel is measured by (Park & Dimitrakopoulos 2013, Huet & Wachs 2023).
 #include "membrane/mesh.hpp"
 
 #include <Eigen/Core>
@@ -33,6 +34,7 @@ struct ShapeDiagnostics {
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();    // column k: direction of semi_axes[k]
   double d12 = 0.0;
   double d12_bbox = 0.0;
+  Eigen::Vector3d extent = Eigen::Vector3d::Zero();      // the nodes' bounding box
 };
 
 // Throws std::invalid_argument if x does not have one column per mesh node.

@@ -125,7 +125,8 @@ TEST(membrane_diagnostics, SphereTaylorParametersVanish) {
 // 1/sqrt2): its second-moment tensor is det(A) A J_sphere A^T with J_sphere isotropic (see
 // above), so its inertia-ellipsoid axes are exactly proportional to (2, 1/sqrt2, 1/sqrt2) and
 // D12 equals (2 - 1/sqrt2)/(2 + 1/sqrt2) to round-off, not just within the discretisation
-// error; the icosphere has nodes on the coordinate axes, so D12_bbox is exact too. The axes'
+// error; the icosphere has nodes on the coordinate axes, so D12_bbox and the extent (the
+// axes' full lengths, the lengths a capsule in a channel is measured by) are exact too. The axes'
 // lengths, the area and the inertia converge to the ellipsoid's (orders asserted).
 TEST(membrane_diagnostics, SeedEllipsoidTaylorParameters) {
   const double big = 2 * a, small = a / std::sqrt(2.0);
@@ -144,6 +145,7 @@ TEST(membrane_diagnostics, SeedEllipsoidTaylorParameters) {
       const ShapeDiagnostics d = shape_diagnostics(mesh, seed_ellipsoid(mesh.nodes.colwise() + centre, centre));
       EXPECT_NEAR(d.d12, d12_exact, 1e-13);
       EXPECT_NEAR(d.d12_bbox, d12_exact, 1e-14);
+      EXPECT_LT((d.extent - Eigen::Vector3d(2 * big, 2 * small, 2 * small)).norm(), 1e-14);
       EXPECT_NEAR(d.volume, sphere.volume, 1e-14 * sphere.volume);  // det A = 1
       EXPECT_LT((d.centroid - centre).norm(), 1e-14);
       EXPECT_NEAR(std::abs(d.axes(0, 0)), 1.0, 1e-12);  // the major axis is Ox
