@@ -16,7 +16,10 @@
 // so with N the faces' imbalance (the divergence theorem) every cut cell's fluxes add up for
 // linear fields, and second order overall. A wall along a grid axis whose centroid lies on
 // the line of the cell's centre (a channel's planar walls) is fitted on that line only: the
-// cell and its neighbour into the fluid. The fit is a fixed linear stencil per cut cell,
+// cell and its neighbour into the fluid, or where the wall is a face of the cell (its centre
+// half a cell away) the cell alone, (a_wall - a_c) / (h/2) as at the brick's own walls (the
+// fit with the neighbour was as accurate but slowed the multigrid: a weaker diagonal). The
+// fit is a fixed linear stencil per cut cell,
 // built once per geometry: grad a(x_w) . N = sum_k w_k (a_k - a_wall).
 //
 // The values are read at the cells' centres, also where a centre lies in the solid (the
@@ -77,12 +80,13 @@ class WallFlux {
   // (at least h/2). None in a geometry resolved by a few cells.
   std::int64_t fallbacks() const { return fallbacks_; }
   // Cut cells whose wall lies along a grid axis, on the line of their centre: their fit
-  // takes the two cells on that line only (wall_flux.cpp, normal_column).
+  // takes the cells on that line only (wall_flux.cpp, normal_column).
   std::int64_t columns() const { return columns_; }
 
-  // A wall on a face of a full cell (EmbeddedGeometry's kStencilClosedFace) fitted on the
-  // column into the fluid: its stencil is the same at every such cell and level, in units of
-  // 1/h^2, self * a_c + other * a_n with n the face neighbour opposite the wall.
+  // A wall on a face of a full cell (EmbeddedGeometry's kStencilClosedFace) on the column
+  // into the fluid: its stencil is the same at every such cell and level, in units of 1/h^2,
+  // self * a_c + other * a_n with n the face neighbour opposite the wall (other = 0: the
+  // brick's wall gradient from the cell alone).
   struct FaceColumn {
     double self = 0.0, other = 0.0;
   };
