@@ -18,8 +18,8 @@
 // the line of the cell's centre (a channel's planar walls) is fitted on that line only: the
 // cell and its neighbour into the fluid, or where the wall is a face of the cell (its centre
 // half a cell away) the cell alone, (a_wall - a_c) / (h/2) as at the brick's own walls (the
-// fit with the neighbour was as accurate but slowed the multigrid: a weaker diagonal). The
-// fit is a fixed linear stencil per cut cell,
+// fit with the neighbour weakened the row's diagonal and slowed the multigrid). The fit is
+// a fixed linear stencil per cut cell,
 // built once per geometry: grad a(x_w) . N = sum_k w_k (a_k - a_wall).
 //
 // The values are read at the cells' centres, also where a centre lies in the solid (the
