@@ -26,11 +26,12 @@ tolerance of the reference. Prints a table; exits 1 otherwise.
 """
 import argparse
 import csv
-import subprocess
 import sys
 import tomllib
 
 import numpy as np
+
+import level_runs
 
 
 def haberman_sayre(lam):
@@ -59,36 +60,22 @@ def velocity(out, window):
 
 def main():
     p = argparse.ArgumentParser()
-    p.add_argument("capsflow")
-    p.add_argument("case")
-    p.add_argument("out")
-    p.add_argument("--levels", default="5,6")
+    level_runs.add_arguments(p, tolerance=0.01)
     p.add_argument("--window", type=float, nargs=2, default=[0.4, 0.7])
-    p.add_argument("--nodes", default="642,2562")
-    p.add_argument("--tolerance", type=float, default=0.01)
     p.add_argument("--min-reduction", type=float, default=1.5)
-    p.add_argument("--set", action="append", default=[])
     a = p.parse_args()
     lam, mean = case_geometry(a.case)
     reference = haberman_sayre(lam)
-    levels = [int(x) for x in a.levels.split(",")]
-    nodes = [int(x) for x in a.nodes.split(",")]
-    if len(nodes) != len(levels):
-        sys.exit("tube_sphere: --nodes needs one count per level of --levels")
+    runs = level_runs.levels_and_nodes(a, "tube_sphere")
+    levels = [level for level, _ in runs]
     print(f"a/R = {lam}, Haberman & Sayre U/V = {reference:.5f}")
     print("| max level | nodes | U/V | error | D12 at the window's end |")
     print("|---|---|---|---|---|")
     errors = []
-    for level, n in zip(levels, nodes):
+    for level, n in runs:
         out = f"{a.out}/level{level}"
-        cmd = [a.capsflow, "run", a.case, "--out", out, "--force", "--quiet",
-               "--set", f"adapt.max_level={level}", "--set", f"adapt.wall_level={level}",
-               "--set", f"capsule[0].nodes={n}",
-               "--set", f"time.t_end={a.window[1]}", "--set", "output.vtu=false",
-               "--set", "output.checkpoint=false"]
-        for s in a.set:
-            cmd += ["--set", s]
-        subprocess.run(cmd, check=True)
+        level_runs.run(a, level, n, out, [f"adapt.wall_level={level}", f"time.t_end={a.window[1]}",
+                                          "output.vtu=false", "output.checkpoint=false"])
         u, d12 = velocity(out, a.window)
         errors.append(u / mean / reference - 1.0)
         print(f"| {level} | {n} | {u / mean:.5f} | {errors[-1]:+.2%} | {d12:.1e} |")
