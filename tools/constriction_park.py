@@ -13,7 +13,8 @@ Lz against its centroid x; over 2a and against x / Hc they are compared with the
 curves (tests/data/park_dimitrakopoulos_constriction.csv: the length along the channel, the
 width across in the closing direction, y here, and the spanwise width, z) over the range
 they cover, and the capsule's velocity with Huet & Wachs's Basilisk run of the same case
-(tests/data/huet_wachs_constriction.csv, time and x in units of Hc / V and Hc). Prints a
+(tests/data/huet_wachs_constriction.csv, time and x in units of Hc / V and Hc; the case's
+mean inflow velocity V is taken to be 1, as in the shipped case). Prints a
 table per level; exits 1 unless the finest run's lengths all lie within --tolerance of the
 published curves (the largest difference over each curve).
 
