@@ -174,8 +174,8 @@ ShapeDiagnostics shape_diagnostics(const Mesh& mesh, const Eigen::Matrix3Xd& x) 
     d.axes.col(k) = eig.eigenvectors().col(2 - k);
   }
   d.d12 = (d.semi_axes[0] - d.semi_axes[2]) / (d.semi_axes[0] + d.semi_axes[2]);
-  d.d12_bbox = bounding_box_d12(x);
   d.extent = x.rowwise().maxCoeff() - x.rowwise().minCoeff();
+  d.d12_bbox = (d.extent[0] - d.extent[1]) / (d.extent[0] + d.extent[1]);  // bounding_box_d12's, from the extent
   return d;
 }
 
