@@ -20,7 +20,7 @@
 // cell of the same colour is in the stencil (read before the pass, every thread and rank sees
 // the same numbers), as the pass goes where not (WallFlux::lagged). The layer of full cells
 // along a wall on grid faces (kStencilClosedFace) takes the constant stencil without that
-// face, and its wall's column from WallFlux::face_column() in the relaxation. Without walls
+// face, and its wall's column from WallFlux::face_column_self() in the relaxation. Without walls
 // (NoWalls) nothing of it is compiled in.
 #include <algorithm>
 #include <array>
@@ -211,12 +211,8 @@ class EllipticOperator {
   bool spans_cells(std::span<const double> v) const { return v.size() == static_cast<std::size_t>(tree_.num_cells()); }
 
   // A closed-face cell's weights of its face neighbours (per closed face k: 0 for k, alpha
-  // for the others, and with its wall on the face column, WallFlux::FaceColumn's `other`
-  // added opposite k), and its diagonal.
-  struct ClosedFaces {
-    std::array<std::array<double, F>, F> weight{};
-    double diagonal = 0.0;
-  };
+  // for the others).
+  using ClosedFaces = std::array<std::array<double, F>, F>;
 
   // The relaxation's h^2 and, with constant coefficients, the inverse of its diagonal
   // (the same on every cell of a level): a multiplication per update instead of a
@@ -225,7 +221,9 @@ class EllipticOperator {
   // the compiler reloaded them after every update.
   struct Diagonal {
     double h2 = 0.0, inverse = 0.0, alpha = 0.0;
-    ClosedFaces closed, column;           // closed-face cells without and with the face column
+    ClosedFaces closed;                   // closed-face cells' weights
+    double closed_diagonal = 0.0;         // their diagonal without their wall,
+    double column_diagonal = 0.0;         // and with it (WallFlux::face_column_self())
     const double* wall_others = nullptr;  // with walls: each cut cell's lagged stencil sum
     Diagonal(double h2_, const EllipticOperator& op) : h2(h2_) {
       if constexpr (Alpha::kConstant) alpha = op.alpha_.value;
@@ -233,17 +231,13 @@ class EllipticOperator {
       if constexpr (kUniformCells) {
         alpha = op.alpha_.value;
         inverse = 1.0 / (F * alpha - h2 * op.lambda_.uniform_value());
-        closed.diagonal = (F - 1) * alpha - h2 * op.lambda_.uniform_value();
+        closed_diagonal = (F - 1) * alpha - h2 * op.lambda_.uniform_value();
         for (int k = 0; k < F; ++k)
-          for (int j = 0; j < F; ++j) closed.weight[k][j] = j == k ? 0.0 : alpha;
-        column = closed;
-        if constexpr (Walls::kActive) {
-          // The smoother takes the walls' constant coefficient (a cell's own, at(c), is the
-          // residual's): these cells have the fluid's constant one on every face.
-          const typename WallFlux<D>::FaceColumn wall = WallFlux<D>::face_column();
-          column.diagonal -= op.walls_.alpha * wall.self;
-          for (int k = 0; k < F; ++k) column.weight[k][k ^ 1] += op.walls_.alpha * wall.other;
-        }
+          for (int j = 0; j < F; ++j) closed[k][j] = j == k ? 0.0 : alpha;
+        column_diagonal = closed_diagonal;
+        // The smoother takes the walls' constant coefficient (a cell's own, at(c), is the
+        // residual's): these cells have the fluid's constant one on every face.
+        if constexpr (Walls::kActive) column_diagonal -= op.walls_.alpha * WallFlux<D>::face_column_self();
       }
     }
   };
@@ -483,11 +477,10 @@ class EllipticOperator {
       if (const int closed = alpha_.closed_face(c); closed >= 0) {
         bool column = false;
         if constexpr (Walls::kActive) column = walls_.flux->face_column(c);
-        const ClosedFaces& faces = column ? dg.column : dg.closed;
-        const std::array<double, F>& weight = faces.weight[static_cast<std::size_t>(closed)];
+        const std::array<double, F>& weight = dg.closed[static_cast<std::size_t>(closed)];
 #pragma GCC unroll 6
         for (int k = 0; k < F; ++k) off += weight[k] * da[nb(k)];
-        diag = faces.diagonal;
+        diag = column ? dg.column_diagonal : dg.closed_diagonal;
         if constexpr (Walls::kActive) {
           if (!column && walls_.cut(c)) {
             off += h2 * wall_others(c, dg, da);

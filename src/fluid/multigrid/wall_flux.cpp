@@ -36,7 +36,7 @@ constexpr double kNoNormal = 1e-9;
 constexpr double kAligned = 1e-12;
 // Cut cells of a level from which their fits run on several threads (an Eigen solve each).
 constexpr Index kFitsParallelMin = 256;
-// How close (relative) a closed-face cell's stencil must be to WallFlux::face_column() for
+// How close (relative) a closed-face cell's stencil must be to WallFlux::face_column_self() for
 // the smoother to take the latter: a rounding's worth (the fit's centroids and centres are
 // rounded differently at each cell), and a smoother needs no more.
 constexpr double kSameColumn = 1e-12;
@@ -160,17 +160,17 @@ CellFit fit_cut_cell(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry
 }  // namespace
 
 template <int D>
-typename WallFlux<D>::FaceColumn WallFlux<D>::face_column() {
+double WallFlux<D>::face_column_self() {
   // fit_cut_cell's stencil for a wall half a cell from the centre, |N| = h^(D-1): the centre
   // alone at -1/2 along the normal into the solid, (a_wall - a_c) / (1/2).
-  return {-2.0, 0.0};
+  return -2.0;
 }
 
 template <int D>
 WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometry, Band band) : has_band_(band == Band::listed) {
   row_.assign(static_cast<std::size_t>(t.num_cells()), -1);
   face_column_.assign(static_cast<std::size_t>(t.num_cells()), 0);
-  const FaceColumn column = face_column();
+  const double column_self = face_column_self();
   auto same = [](double a, double b) { return std::abs(a - b) <= kSameColumn * std::abs(b); };
   start_.assign(1, 0);
   cut_cells_.assign(static_cast<std::size_t>(t.depth() + 1), {});
@@ -206,7 +206,7 @@ WallFlux<D>::WallFlux(const tree::Tree<D>& t, const EmbeddedGeometry<D>& geometr
       if (lagged) lagged_by_colour_[static_cast<std::size_t>(2 * l + colour_of(c))].push_back(c);
       const std::uint8_t flag = geometry.uniform()[static_cast<std::size_t>(c)];
       if (closed_face_stencil(flag) && fit.others.empty())
-        face_column_[static_cast<std::size_t>(c)] = same(fit.self * h2, column.self);
+        face_column_[static_cast<std::size_t>(c)] = same(fit.self * h2, column_self);
       lagged_.push_back(lagged);
       columns_ += fit.column;
       fallbacks_ += fit.fallback;

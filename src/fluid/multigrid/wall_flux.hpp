@@ -83,15 +83,11 @@ class WallFlux {
   // takes the cells on that line only (wall_flux.cpp, normal_column).
   std::int64_t columns() const { return columns_; }
 
-  // A wall on a face of a full cell (EmbeddedGeometry's kStencilClosedFace) on the column
-  // into the fluid: its stencil is the same at every such cell and level, in units of 1/h^2,
-  // self * a_c + other * a_n with n the face neighbour opposite the wall (other = 0: the
-  // brick's wall gradient from the cell alone).
-  struct FaceColumn {
-    double self = 0.0, other = 0.0;
-  };
-  static FaceColumn face_column();
-  // Whether c is a closed-face cell whose stencil is face_column()'s (to rounding): the
+  // A wall on a face of a full cell (EmbeddedGeometry's kStencilClosedFace): its stencil is
+  // the same at every such cell and level, the brick's wall gradient from the cell alone,
+  // face_column_self() * a_c in units of 1/h^2.
+  static double face_column_self();
+  // Whether c is a closed-face cell whose stencil is face_column_self()'s (to rounding): the
   // smoother takes it from there, without reading the stencil.
   bool face_column(Index c) const { return face_column_[static_cast<std::size_t>(c)] != 0; }
 
