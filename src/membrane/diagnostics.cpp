@@ -135,8 +135,7 @@ Moments moments(const Mesh& mesh, const Eigen::Matrix3Xd& x, const Eigen::Vector
 
 }  // namespace
 
-double bounding_box_d12(const Eigen::Matrix3Xd& x) {
-  const Eigen::Vector3d extent = x.rowwise().maxCoeff() - x.rowwise().minCoeff();
+double bounding_box_d12(const Eigen::Vector3d& extent) {
   return (extent[0] - extent[1]) / (extent[0] + extent[1]);
 }
 
@@ -175,7 +174,7 @@ ShapeDiagnostics shape_diagnostics(const Mesh& mesh, const Eigen::Matrix3Xd& x) 
   }
   d.d12 = (d.semi_axes[0] - d.semi_axes[2]) / (d.semi_axes[0] + d.semi_axes[2]);
   d.extent = x.rowwise().maxCoeff() - x.rowwise().minCoeff();
-  d.d12_bbox = (d.extent[0] - d.extent[1]) / (d.extent[0] + d.extent[1]);  // bounding_box_d12's, from the extent
+  d.d12_bbox = bounding_box_d12(d.extent);
   return d;
 }
 

@@ -41,7 +41,8 @@ struct ShapeDiagnostics {
 [[nodiscard]] ShapeDiagnostics shape_diagnostics(const Mesh& mesh, const Eigen::Matrix3Xd& x);
 [[nodiscard]] double surface_area(const Mesh& mesh, const Eigen::Matrix3Xd& x);
 [[nodiscard]] double enclosed_volume(const Mesh& mesh, const Eigen::Matrix3Xd& x);
-[[nodiscard]] double bounding_box_d12(const Eigen::Matrix3Xd& x);
+// D12 of the nodes' x-y bounding box, from their extents (ShapeDiagnostics::extent).
+[[nodiscard]] double bounding_box_d12(const Eigen::Vector3d& extent);
 // In a shear flow u = (G y, 0, 0) (the x-y plane the shear plane, z the vorticity axis):
 // the inclination of the inertia ellipsoid's longest axis to x in that plane, in units of
 // pi, in (-1/2, 1/2] (Ramanujan & Pozrikidis 1998 and most of the capsule literature plot
