@@ -191,7 +191,8 @@ void NavierStokes<D>::update_properties() {
 
 template <int D>
 void NavierStokes<D>::stabilise_band(double h) {
-  // BDF2 with a history only (transpose_velocity_), and only as far as the step is stiff
+  // With a transpose velocity only (BDF2 with a history, and every backward Euler or
+  // Crank-Nicolson step: transpose_velocity_), and only as far as the step is stiff
   // at the finest cells: sigma x / (1 + x), x = nu h / dx^2 (one number on every rank). A
   // step short against the cells' viscous time is stable without it, and sigma's O(dt^2)
   // term then only adds error (TimeOrder.ImplicitBdf2WithAnInnerFluid).
@@ -203,8 +204,10 @@ void NavierStokes<D>::stabilise_band(double h) {
   stabilised_ = true;
   // mu_s: (1 + sigma) mu on the leaves where mu varies (every rank has them for its ghosts
   // too), mu elsewhere; its face means as mu_faces_'s.
+  // (held between steps: a fresh array of every cell's each step cost its page faults).
   const std::span<const double> mu = tree_.values(mu_field_);
-  std::vector<double> mu_s(mu.begin(), mu.end());
+  std::vector<double>& mu_s = stabilised_cell_mu_;
+  mu_s.assign(mu.begin(), mu.end());
   for (const auto& [c, level] : varying_) mu_s[static_cast<std::size_t>(c)] *= 1.0 + sigma;
   face_coefficients<D>(tree_, mu_s, FaceMean::harmonic, stabilised_mu_faces_);
   const std::size_t slots = stabilised_mu_faces_.size() / (2 * D);
@@ -219,6 +222,15 @@ void NavierStokes<D>::stabilise_band(double h) {
       uniform = uniform && stabilised_mu_faces_[i] == mu_;
     }
     stabilised_uniform_[c] = uniform ? kStencilUniform : kStencilArrays;
+  }
+  // The leaves with a stabilising face: the explicit difference is zero on every other one
+  // (a leaf beside a finer region has its fine faces' mean, so it is listed if they are).
+  stabilising_leaves_.clear();
+  for (const Index c : tree_.leaves()) {
+    const std::size_t first = static_cast<std::size_t>(c) * 2 * D;
+    if (std::any_of(stabilising_faces_.begin() + first, stabilising_faces_.begin() + first + 2 * D,
+                    [](double v) { return v != 0.0; }))
+      stabilising_leaves_.push_back({c, tree_.level_of(c)});
   }
   if (!embedded_) return;
   // With embedded walls the same times the fluid fractions, and mu_s per cell slot for the
@@ -237,7 +249,6 @@ void NavierStokes<D>::stabilise_band(double h) {
     const bool constant = constant_stencil(flag);
     embedded_stabilised_uniform_[c] = constant && !stabilised_uniform_[c] ? kStencilArrays : flag;
   }
-  stabilised_cell_mu_ = std::move(mu_s);
   tree_.restrict_and_exchange(stabilised_cell_mu_);
   stabilising_cell_mu_.resize(stabilised_cell_mu_.size());
   for (std::size_t c = 0; c < stabilised_cell_mu_.size(); ++c) stabilising_cell_mu_[c] = stabilised_cell_mu_[c] - cell_mu_[c];
@@ -287,12 +298,18 @@ MultigridStats NavierStokes<D>::variable_viscous_solve(int d, double dt, double 
   });
   if (theta < 1.0)  // explicit part at u^n (not u*: shift_by_g), walls at t^n
     subtract_explicit_half(d, dt, theta, EllipticOperator<D, FaceArray<D>>(tree_, {mu_faces_.data()}, {}, conditions_.velocity[d]));
-  // BDF2: the band's stabilisation (stabilise_band), its explicit half at u_e (synced at
-  // t^(n+1) by extrapolate_start: the sides' values enter as in the solve).
+  // The band's stabilisation (stabilise_band), its explicit half at transpose_velocity_: BDF2's
+  // u_e (synced at t^(n+1) by extrapolate_start: the sides' values enter as in the solve), or
+  // u^n (synced at t^n, as the transpose stress has always read it).
   if (stabilised_) {
-    EllipticOperator<D, FaceArray<D>>(tree_, {stabilising_faces_.data()}, {}, conditions_.velocity[d])
-        .apply_leaves(transpose_velocity_[d], div_);
-    tree_.for_each_leaf([&](Index c) { rhs_[c] += div_[c]; });
+    const EllipticOperator<D, FaceArray<D>> stabilising(tree_, {stabilising_faces_.data()}, {}, conditions_.velocity[d]);
+    const std::span<const double> v = transpose_velocity_[d];
+    const auto n = static_cast<std::ptrdiff_t>(stabilising_leaves_.size());
+#pragma omp parallel for schedule(static) if (n > tree::kParallelMin)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+      const auto [c, level] = stabilising_leaves_[static_cast<std::size_t>(i)];
+      rhs_[c] += stabilising.apply(tree_.level(level), c, tree_.cell_size(level), v);
+    }
   }
   const std::vector<double>& faces = stabilised_ ? stabilised_mu_faces_ : mu_faces_;
   const std::vector<std::uint8_t>& uniform = stabilised_ ? stabilised_uniform_ : mu_uniform_;

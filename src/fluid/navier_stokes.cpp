@@ -113,6 +113,17 @@ double NavierStokes<D>::extrapolate_start(double dt) {
   return history ? dt * (1.0 + w) / (1.0 + 2.0 * w) : dt;
 }
 
+// Backward Euler and Crank-Nicolson: the explicit transpose stress at u^n, held (synced at
+// t^n) for the band's stabilisation as BDF2 holds its extrapolation (stabilise_band).
+template <int D>
+void NavierStokes<D>::hold_transpose_velocity() {
+  for (int d = 0; d < D; ++d) {
+    const std::span<double> u = tree_.values(u_[d]);
+    tree_.sync(u, conditions_.velocity[d], tree::Prolongation::quadratic);
+    transpose_velocity_[d].assign(u.begin(), u.end());
+  }
+}
+
 template <int D>
 void NavierStokes<D>::resize_scratch() {
   const auto n = static_cast<std::size_t>(tree_.num_cells());
@@ -239,6 +250,7 @@ StepStats NavierStokes<D>::step() {
     }
   }
   if (properties_) {
+    if (!options_.bdf2) hold_transpose_velocity();
     update_properties();
     stabilise_band(h);
   }

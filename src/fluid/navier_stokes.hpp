@@ -349,8 +349,12 @@ class NavierStokes {
   // where mu varies the solves take sigma div(mu grad u) implicitly and at u_e explicitly:
   // second order still, and the explicit share in bounds. A scalar model asks sigma >= 1/2;
   // at lambda = 100 sigma = 1 still left an even-odd oscillation of the band, 3 none.
+  // Backward Euler and Crank-Nicolson take it at u^n and need the same: the seed case at its
+  // dt = 1e-3 rang at lambda = 5 (max |u| 5.3 to 13.9 and back) and blew up at 100 without
+  // it, and at sigma = 1 still blew up at 100 (AppCapsule.ViscousInnerFluidIsStableAtTheSeedStep).
   static constexpr double kTransposeStabilisation = 3.0;
   void stabilise_band(double h);  // after update_properties, h the stages' step: the stabilised_* arrays
+  void hold_transpose_velocity();  // without BDF2: transpose_velocity_ = u^n
   // With a density that varies (update_properties): the projection's face coefficients and
   // the viscous cell term's densities.
   void embedded_density();
@@ -401,20 +405,21 @@ class NavierStokes {
   std::vector<double> alpha_faces_, mu_faces_;  // 1/rho and mu, 2D per cell slot
   std::vector<double> lambda_;                  // -rho/(theta dt) of the viscous solve
   std::array<std::vector<double>, D> transpose_;  // T per component
-  // FlowOptions::bdf2 with a history: u^n + w (u^n - u^(n-1)), the velocity the explicit
-  // transpose stress and its stabilisation take (extrapolate_start fills and syncs it; step()
-  // empties it at its end).
+  // The velocity the explicit transpose stress and its stabilisation take: with
+  // FlowOptions::bdf2 and a history u^n + w (u^n - u^(n-1)) (extrapolate_start fills and
+  // syncs it), without BDF2 u^n (hold_transpose_velocity); step() empties it at its end.
   std::array<std::vector<double>, D> transpose_velocity_;
-  // BDF2's stabilisation of the explicit transpose stress (stabilise_band): the viscous
+  // The stabilisation of the explicit transpose stress (stabilise_band): the viscous
   // solves take mu_s = (1 + sigma) mu on the band's leaves implicitly and the difference
   // div((mu_s - mu) grad u) at transpose_velocity_ explicitly. Face means of mu_s, their
-  // difference with mu_faces_, the cells every face of which has mu_; with embedded walls
-  // the fractions times both, those cells also open, and mu_s per cell slot with its
-  // difference with cell_mu_.
+  // difference with mu_faces_, the cells every face of which has mu_, mu_s per cell slot;
+  // with embedded walls the fractions times both, those cells also open, and mu_s restricted
+  // onto the parents with its difference with cell_mu_.
   bool stabilised_ = false;  // this step's viscous solves take them
   std::vector<double> stabilised_mu_faces_, stabilising_faces_;
   std::vector<double> embedded_stabilised_faces_, embedded_stabilising_faces_, stabilised_cell_mu_, stabilising_cell_mu_;
   std::vector<std::uint8_t> stabilised_uniform_, embedded_stabilised_uniform_;
+  std::vector<std::pair<Index, int>> stabilising_leaves_;  // with a stabilising face, and their levels
   double rho_min_ = 1.0;                        // scales the viscous tolerance
   double nu_max_ = 1.0;                         // the largest mu / rho: the shortest viscous times
   bool uniform_density_ = false;                // variable viscosity only

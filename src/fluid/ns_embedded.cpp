@@ -120,8 +120,8 @@ MultigridStats NavierStokes<D>::embedded_viscous_solve(int d, double dt, double 
         if (lv.is_leaf(c))
           rhs_[c] -= v.walls.at(c) * wall_flux_->wall(c) * wall_velocity(d, c) / theta;
     }
-  // BDF2: the band's stabilisation (stabilise_band): the solve takes mu_s, and its
-  // difference with mu at u_e is explicit (the walls' flux homogeneous, as in the solve: a
+  // The band's stabilisation (stabilise_band): the solve takes mu_s, and its difference with
+  // mu at transpose_velocity_ is explicit (the walls' flux homogeneous, as in the solve: a
   // moving wall's share is the source above; zero on the uniform cells).
   EmbeddedViscous solved = v;
   if (stabilised_) {
