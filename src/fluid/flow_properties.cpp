@@ -203,8 +203,8 @@ void NavierStokes<D>::stabilise_band(double h) {
   const double sigma = kTransposeStabilisation * x / (1.0 + x);
   stabilised_ = true;
   // mu_s: (1 + sigma) mu on the leaves where mu varies (every rank has them for its ghosts
-  // too), mu elsewhere; its face means as mu_faces_'s.
-  // (held between steps: a fresh array of every cell's each step cost its page faults).
+  // too), mu elsewhere; its face means as mu_faces_'s. Kept in a member between steps: a
+  // new array each step paid its page faults every step.
   const std::span<const double> mu = tree_.values(mu_field_);
   std::vector<double>& mu_s = stabilised_cell_mu_;
   mu_s.assign(mu.begin(), mu.end());

@@ -408,7 +408,7 @@ TEST(AppCapsule, InnerFluidRestartsExactly) {
 // backward Euler): the transpose stress is explicit, and without the band's stabilisation
 // (NavierStokes::stabilise_band, then BDF2's only) max |u| grew from 2.8 to 130 between
 // t = 0.012 and 0.018 and the membrane folded (exit 3); at lambda = 5 it rose from 5.3 to
-// 13.9 and fell back by t = 0.035. Stabilised: 1.9-3.5 (3.5 the first step's), smooth.
+// 13.9 and fell back by t = 0.035. Stabilised: 3.5 at the first step, then a smooth 1.9-2.8.
 TEST(AppCapsule, ViscousInnerFluidIsStableAtTheSeedStep) {
   const fs::path dir = scratch("capsule_viscous_inside");
   const auto r = capsflow("run " + std::string(CAPSFLOW_CASES_DIR) +
