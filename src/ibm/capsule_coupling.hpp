@@ -341,7 +341,8 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // with G = Gs (Skalak: Gs max(1, (1 + 2C)/3), its area modulus relative to C = 1, the
   // measured case), i.e. in the seed's units min(0.53 sqrt(Ca Re dx^3), 0.42 Ca dx): the
   // limit depends on Re dx / Ca, and the Stokes limit (small Re dx / Ca) is the stricter.
-  // Smallest over the capsules; 0 without capsules.
+  // No inner fluid lowers it (viscosity ratios 0.01-100 measured, docs/numerics.md), so it
+  // takes none. Smallest over the capsules; 0 without capsules.
   [[nodiscard]] double stability_limit() const;
   static constexpr double kInertialLimit = 0.53, kViscousLimit = 0.42;
   // Embedded walls (fluid/embedded_geometry.hpp). A node within its kernels' reach of a wall
