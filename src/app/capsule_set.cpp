@@ -116,10 +116,10 @@ CapsuleSet::CapsuleSet(const io::CaseConfig& c, fluid::NavierStokes<3>& ns) : ca
     coupling_->set_inner_fluid(index, {.viscosity_ratio = k.viscosity_ratio, .density_ratio = k.density_ratio});
   }
   if (c.time.coupling == io::Coupling::automatic) {
-    // "auto": the steps the explicit coupling takes safely (at most kSafety of its measured
-    // limit, the margin of a solver-chosen step) stay explicit, one flow step each.
+    // "auto": the steps its explicit scheme (BDF2's) takes safely stay explicit, one flow
+    // step each.
     ibm::CapsuleCoupling::ImplicitOptions o = coupling_->implicit_options();
-    o.explicit_below = ibm::CapsuleCoupling::kSafety * coupling_->stability_limit();
+    o.explicit_below = coupling_->auto_explicit_limit();
     coupling_->set_implicit(o);
   }
   if (coupling_->any_inner_fluid()) {

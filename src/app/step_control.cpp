@@ -28,6 +28,13 @@ void StepControl::reject(double dt) {
   if (options_.dt_max > 0.0) next_ = std::min(next_, options_.dt_max);
 }
 
+double StepControl::next(double t, double cap) const {
+  const double landed = land(t, std::min(next_, cap));
+  // land() may lengthen a step by its slack (1e-6 relative) to reach an instant: then
+  // landed below the cap by more than that.
+  return landed <= cap ? landed : land(t, cap * (1.0 - 1e-5));
+}
+
 double StepControl::land(double t, double dt) const {
   if (!enabled() || !(options_.instants > 0.0)) return dt;
   // The next multiple of the interval; the slack absorbs the round-off of a time summed step

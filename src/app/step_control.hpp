@@ -33,6 +33,9 @@ class StepControl {
   [[nodiscard]] bool enabled() const { return options_.tolerance > 0.0; }
   // The next step at time t, before the run's other caps (the end time, the explicit limit).
   [[nodiscard]] double next(double t) const { return land(t, next_); }
+  // The same, at most `cap` and landed below it (a cap that must hold: time.coupling = "auto"
+  // keeps its explicit steps, run_case.cpp).
+  [[nodiscard]] double next(double t, double cap) const;
   // After a step of dt whose node error per unit time was `error`, by a scheme of `order`
   // (a negative error: no estimate, the first step and after a restart that kept none).
   void after_step(double dt, double error, int order = 1);

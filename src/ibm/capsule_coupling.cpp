@@ -156,6 +156,13 @@ double CapsuleCoupling::stability_limit() const {
   return std::min(kInertialLimit * std::sqrt(o.density * dx * dx * dx / g), kViscousLimit * mu * dx / g);
 }
 
+double CapsuleCoupling::auto_explicit_limit() const {
+  if (scheme_ != NodeScheme::bdf2) return kSafety * stability_limit();  // Euler's nodes: the measured limit's margin
+  const bool thin_inside = std::any_of(inner_.begin(), inner_.end(),
+                                       [](const InnerFluid& f) { return f.viscosity_ratio < kThinInside; });
+  return (thin_inside ? kAutoExplicitThinInside : kAutoExplicit) * stability_limit();
+}
+
 double CapsuleCoupling::membrane_energy(int k) const {
   const Capsule& c = capsule(k);
   try {

@@ -357,6 +357,18 @@ class CapsuleCoupling final : public fluid::BodyRefinement<3>, public fluid::Ste
   // The fraction of stability_limit() that a solver-chosen dt uses (time.cfl > 0): the
   // measured limits hold for 150 steps; long runs and strong deformations need a margin.
   static constexpr double kSafety = 0.5;
+  // The longest step time.coupling = "auto" takes explicitly. Its explicit steps (BDF2's
+  // nodes with the forces at X*, this step's force in the viscous solve, the flow stepped by
+  // BDF2) stay stable far above stability_limit(), which is the lag's with Euler's nodes:
+  // 150 steps held at 9.5 to more than 64 times it over Re / Ca = 0.01 to 1000 (the least at
+  // Re = 1, Ca = 0.1), and the seed case ran its 2500 steps at 6.1 times it. kAutoExplicit is
+  // two thirds of the least. A capsule whose inside is less viscous than the fluid around it
+  // folds an element sooner (viscosity ratios 0.05-0.2 at kAutoExplicit on the quick
+  // relaxation; 0.01: stable at 2.8, folding at 3.4 times the limit), so with any ratio below
+  // kThinInside the multiple is kAutoExplicitThinInside (docs/numerics.md, "The explicit steps
+  // of auto"). With Euler's nodes (forces at X) it is kSafety, the explicit coupling's margin.
+  [[nodiscard]] double auto_explicit_limit() const;
+  static constexpr double kAutoExplicit = 6.3, kAutoExplicitThinInside = 2.0, kThinInside = 0.5;
 
  private:
   void compute_forces(int step);

@@ -65,6 +65,22 @@ TEST(StepControl, StepsLandOnTheInstantsInEqualSteps) {
   EXPECT_NEAR(c.next(0.0079999999999999), 0.012, 1e-15);
 }
 
+// A cap that must hold (time.coupling = "auto" keeps its steps explicit): the proposal when
+// shorter, else the cap, landed on the instants below it, never above it by land()'s slack.
+TEST(StepControl, ACapHoldsAndStillLandsOnTheInstants) {
+  StepControl c({.tolerance = 1.0, .first_dt = 0.003, .instants = 0.004});
+  EXPECT_DOUBLE_EQ(c.next(0.0, 0.01), 0.002);    // the proposal, landed
+  EXPECT_DOUBLE_EQ(c.next(0.0, 0.0015), 0.004 / 3);  // the cap, landed: three steps to 0.004
+  c.after_step(0.003, 0.0);                      // proposes 0.006
+  EXPECT_DOUBLE_EQ(c.next(0.004, 0.004), 0.004);
+  // Three steps of the cap are 0.0012 + 1e-9 short of the instant: the slack would land the
+  // cap's 0.0004 + tiny; the step stays at or below the cap.
+  const double cap = 0.004 / 3.0 * (1.0 - 2e-7);
+  const double dt = c.next(0.0, cap);
+  EXPECT_LE(dt, cap);
+  EXPECT_GT(dt, 0.75 * cap);
+}
+
 TEST(StepControl, RestartTakesTheSameNextStep) {
   StepControl a({.tolerance = 0.01, .first_dt = 1e-3});
   a.after_step(1e-3, 0.002);
