@@ -18,7 +18,8 @@ import numpy as np
 def load(run_dir):
     path = f"{run_dir}/diagnostics.csv"
     try:
-        return np.genfromtxt(path, delimiter=",", names=True)
+        # One data row reads as a 0-d array: at least 1-d, so that every column iterates.
+        return np.atleast_1d(np.genfromtxt(path, delimiter=",", names=True))
     except OSError as error:
         sys.exit(f"compare_runs: cannot read {path}: {error}")
 
