@@ -73,12 +73,10 @@ TEST(StepControl, ACapHoldsAndStillLandsOnTheInstants) {
   EXPECT_DOUBLE_EQ(c.next(0.0, 0.0015), 0.004 / 3);  // the cap, landed: three steps to 0.004
   c.after_step(0.003, 0.0);                      // proposes 0.006
   EXPECT_DOUBLE_EQ(c.next(0.004, 0.004), 0.004);
-  // Three steps of the cap are 0.0012 + 1e-9 short of the instant: the slack would land the
-  // cap's 0.0004 + tiny; the step stays at or below the cap.
+  // Three steps of this cap fall 8e-10 short of the instant 0.004: land()'s slack would take
+  // three steps of 0.004 / 3, just above the cap; four steps of 0.001 stay below it.
   const double cap = 0.004 / 3.0 * (1.0 - 2e-7);
-  const double dt = c.next(0.0, cap);
-  EXPECT_LE(dt, cap);
-  EXPECT_GT(dt, 0.75 * cap);
+  EXPECT_DOUBLE_EQ(c.next(0.0, cap), 0.001);
 }
 
 TEST(StepControl, RestartTakesTheSameNextStep) {

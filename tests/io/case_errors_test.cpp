@@ -132,7 +132,7 @@ TEST(io_case_errors, ImplicitCouplingKeys) {
   EXPECT_EQ(b.time.node_scheme, NodeScheme::bdf2);
   EXPECT_EQ(parse_case_text(to_toml(b), "c"), b);
   EXPECT_THAT(error_of(std::string(kBase) + "[time]\nnode_scheme = \"bdf2\"\n"),
-              HasSubstr("time.node_scheme = \"bdf2\": BDF2 is the implicit coupling's rule"));
+              HasSubstr("time.node_scheme = \"bdf2\": BDF2's rule runs with time.coupling = \"auto\""));
   EXPECT_THAT(error_of(std::string(kBase) + "[fluid]\ncarry_faces = true\n[time]\ncoupling = \"implicit\"\n"
                                             "node_scheme = \"bdf2\"\n"),
               HasSubstr("time.node_scheme = \"bdf2\": BDF2 steps the flow by BDF2 too, with neither fluid.carry_faces"));
