@@ -297,8 +297,8 @@ void check_time(const CaseConfig& c, const Checker& ck) {
             "\"implicit\" or \"auto\"), or 0");
   if (c.time.coupling == Coupling::explicit_forces && c.time.node_scheme == NodeScheme::bdf2)
     ck.fail("time.node_scheme", toml_string(to_string(c.time.node_scheme)),
-            "BDF2's rule runs with time.coupling = \"auto\" (its steps up to 6.3 times the explicit limit "
-            "stay explicit) or \"implicit\"");
+            "BDF2's rule runs with time.coupling = \"auto\" (its steps within the limit of BDF2's explicit "
+            "steps stay explicit) or \"implicit\"");
 }
 
 void check_output(const CaseConfig& c, const Checker& ck) {
