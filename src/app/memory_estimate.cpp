@@ -21,11 +21,13 @@ namespace {
 
 // Peak resident memory per tree cell, measured with /usr/bin/time -v (maximum resident set
 // size) on uniform runs one level apart, whose difference removes the fixed part:
-//   3D duct_3d, levels 5 and 6 (149 796 and 1 198 372 cells): 424 B/cell without snapshots,
-//     708 B/cell with them (write_tree_vtu holds the points and connectivity of every leaf);
-//   2D cavity_2d, levels 9 and 10 (349 525 and 1 398 101 cells): 382 and 398 B/cell.
+//   3D duct_3d, levels 5 and 6 (149 796 and 1 198 372 cells): 534 B/cell without snapshots,
+//     818 B/cell with them (write_tree_vtu holds the points and connectivity of every leaf);
+//   2D cavity_2d, levels 9 and 10 (349 525 and 1 398 101 cells): 414 and 430 B/cell.
+// Both are Navier-Stokes runs (the advection holds every component's slopes and fluxes); a
+// Stokes run holds about 100 B/cell less in 3D, so the estimate is an upper bound there.
 // The fixed part (code, libraries, VTK, the membrane of a capsule case) is about 40 MB.
-constexpr double kBytesPerCell[2][2] = {{382.0, 398.0}, {424.0, 708.0}};  // [3D][snapshots]
+constexpr double kBytesPerCell[2][2] = {{414.0, 430.0}, {534.0, 818.0}};  // [3D][snapshots]
 constexpr double kFixedBytes = 40e6;
 
 std::string human(double bytes) {

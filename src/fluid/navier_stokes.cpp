@@ -128,7 +128,11 @@ template <int D>
 void NavierStokes<D>::resize_scratch() {
   const auto n = static_cast<std::size_t>(tree_.num_cells());
   for (auto* f : {&uf_, &force_, &scratch_faces_}) resize<D>(*f, tree_);
-  for (auto& s : slope_) s.assign(n, 0.0);
+  if (!options_.stokes) {
+    for (auto& component : slope_)
+      for (auto& s : component) s.assign(n, 0.0);
+    for (auto& f : fluxes_) resize<D>(f, tree_);
+  }
   for (auto& s : source_) s.assign(n, 0.0);
   div_.assign(n, 0.0);
   rhs_.assign(n, 0.0);

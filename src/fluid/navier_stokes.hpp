@@ -390,7 +390,10 @@ class NavierStokes {
   FaceField<D> carried_faces_;
   std::array<std::vector<double>, D> start_velocity_;
   bool carrying_ = false;
-  std::array<std::vector<double>, D> slope_;  // du_c/dx_d for the component being advected
+  // The advection's (not allocated for Stokes flow): slope_[c][d] = du_c/dx_d, and the
+  // fluxes of u_1..u_(D-1) (u_0's go to scratch_faces_).
+  std::array<std::array<std::vector<double>, D>, D> slope_;
+  std::array<FaceField<D>, D - 1> fluxes_;
   std::array<std::vector<double>, D> source_;  // advection sources g + nu lap u
   std::vector<double> div_, rhs_;
   FaceForce face_force_;

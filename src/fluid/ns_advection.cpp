@@ -29,42 +29,60 @@ namespace capsflow::fluid {
 
 namespace {
 
-// Slopes of f along every direction on the leaves (central or minmod), halo injected.
-// Distributed: on the owned groups only; the ghosts' slopes come from their owners.
+// The slopes of every component along every direction on the leaves (central or minmod),
+// halo injected: slope[c][d] = du_c/dx_d. Distributed: on the owned groups only; the
+// ghosts' slopes come from their owners.
 template <int D>
-void slopes(const tree::Tree<D>& t, std::span<const double> f, bool limited,
-            std::array<std::vector<double>, D>& out) {
+void slopes(const tree::Tree<D>& t, const std::array<std::span<const double>, D>& u, bool limited,
+            std::array<std::array<std::vector<double>, D>, D>& out) {
   for_each_owned_leaf_level<D>(t, [&](Index c, int l, double h) {
     const Index* row = t.level(l).face_row(c);
-    for (int d = 0; d < D; ++d) {
-      const double lo = f[row[2 * d]], hi = f[row[2 * d + 1]];
-      out[d][c] = limited ? tree::minmod(hi - f[c], f[c] - lo) / h : (hi - lo) / (2.0 * h);
+    for (int k = 0; k < D; ++k) {
+      const std::span<const double> f = u[k];
+      for (int d = 0; d < D; ++d) {
+        const double lo = f[row[2 * d]], hi = f[row[2 * d + 1]];
+        out[k][d][c] = limited ? tree::minmod(hi - f[c], f[c] - lo) / h : (hi - lo) / (2.0 * h);
+      }
     }
   });
   // Distributed: a ghost's slope from its owner (its own stencil may reach past the ghost
   // layer), before the halos copy it.
-  t.update_ghosts(components<D>(out));
-  for (int d = 0; d < D; ++d) inject_halo<D>(t, out[d]);
+  std::array<std::span<double>, D * D> all;
+  for (int k = 0; k < D; ++k)
+    for (int d = 0; d < D; ++d) all[k * D + d] = out[k][d];
+  t.update_ghosts(all);
+  for (std::span<double> s : all) inject_halo<D>(t, s);
 }
 
-// The BCG face value of f (see above); `vt(e, i)` is the transverse velocity of cell i.
+// The BCG face values (see above) of the components first..last of u on the face along d
+// between lo and hi, into value[first..last]; `vt(e, i)` is the transverse velocity of cell
+// i. The components share the upwind cell and the transverse velocities, which is why they
+// are computed together (each component's arithmetic is its own, in the same order).
 template <int D, class Transverse>
-double bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, double un,
-                std::span<const double> f, const std::array<std::vector<double>, D>& slope,
-                std::span<const double> src, double src_step, double dt, Transverse&& vt) {
+void bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, double un, int first, int last,
+              const std::array<std::span<const double>, D>& u,
+              const std::array<std::array<std::vector<double>, D>, D>& slope,
+              const std::array<std::span<const double>, D>& src, double src_step, double dt, Transverse&& vt,
+              std::array<double, D>& value) {
   const double s = un > 0.0 ? 1.0 : -1.0;
   const Index i = s > 0.0 ? lo : hi;
-  if (i >= lv.boundary_begin()) return 0.5 * (f[lo] + f[hi]);  // boundary value
-  double v = f[i] + s * (1.0 - s * un) * slope[d][i] * 0.5 * h + src_step * src[i];
-  if (i >= lv.active_end()) return v;  // halo: no transverse neighbours
+  if (i >= lv.boundary_begin()) {  // boundary value
+    for (int k = first; k <= last; ++k) value[k] = 0.5 * (u[k][lo] + u[k][hi]);
+    return;
+  }
+  for (int k = first; k <= last; ++k)
+    value[k] = u[k][i] + s * (1.0 - s * un) * slope[k][d][i] * 0.5 * h + src_step * src[k][i];
+  if (i >= lv.active_end()) return;  // halo: no transverse neighbours
   const Index* row = lv.face_row(i);
   for (int e = 0; e < D; ++e) {
     if (e == d) continue;
     const double w = vt(e, i);
-    const double diff = w < 0.0 ? f[row[2 * e + 1]] - f[i] : f[i] - f[row[2 * e]];
-    v -= dt * w * diff / (2.0 * h);
+    const Index n = w < 0.0 ? row[2 * e + 1] : row[2 * e];
+    for (int k = first; k <= last; ++k) {
+      const double diff = w < 0.0 ? u[k][n] - u[k][i] : u[k][i] - u[k][n];
+      value[k] -= dt * w * diff / (2.0 * h);
+    }
   }
-  return v;
 }
 
 }  // namespace
@@ -100,18 +118,16 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   for (int d = 0; d < D; ++d) inject_halo<D>(tree_, source_[d]);
   sync_velocity();  // back to the linear halos the slopes and faces use
   // 1. Prediction of the normal velocity on every face, then its approximate projection.
-  std::array<std::vector<double>, D>& sl = slope_;
-  for (int d = 0; d < D; ++d) {
-    slopes<D>(tree_, u[d], options_.limited_slopes, sl);
-    for_each_face<D>(tree_, [&](int dd, Index lo, Index hi, double h, const tree::Level<D>& lv) {
-      if (dd != d) return;
-      const double un = dt * 0.5 * (u[d][lo] + u[d][hi]) / h;
-      // The source is the face mean of g, as Basilisk's (g[] + g[-1]) dt / 4.
-      const double v = bcg_face<D>(lv, d, lo, hi, h, un, u[d], sl, g[d], 0.0, dt,
-                                   [&](int e, Index i) { return u[e][i]; });
-      uf_[d][hi] = v + 0.25 * dt * (g[d][lo] + g[d][hi]);
-    });
-  }
+  // The slopes of every component, for the prediction (u_d along d) and the advection.
+  std::array<std::array<std::vector<double>, D>, D>& sl = slope_;
+  slopes<D>(tree_, u, options_.limited_slopes, sl);
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
+    const double un = dt * 0.5 * (u[d][lo] + u[d][hi]) / h;
+    std::array<double, D> v;
+    bcg_face<D>(lv, d, lo, hi, h, un, d, d, u, sl, g, 0.0, dt, [&](int e, Index i) { return u[e][i]; }, v);
+    // The source is the face mean of g, as Basilisk's (g[] + g[-1]) dt / 4.
+    uf_[d][hi] = v[d] + 0.25 * dt * (g[d][lo] + g[d][hi]);
+  });
   // Distributed: the ghosts' lower faces from their owners; the advection's transverse
   // velocities read the faces of the cells next to the owned ones.
   tree_.update_ghosts(components<D>(uf_));
@@ -125,35 +141,35 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   // that small cut cells do not limit the time step.
   const FaceField<D>* open = open_faces();
   const std::span<const double> volume = embedded_ ? embedded_->volume() : std::span<const double>{};
-  FaceField<D>& flux = scratch_faces_;
-  for (int c = 0; c < D; ++c) {
-    slopes<D>(tree_, u[c], options_.limited_slopes, sl);
-    for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
-      const double un = dt * uf_[d][hi] / h;
-      const double f = bcg_face<D>(lv, d, lo, hi, h, un, u[c], sl, g[c], 0.5 * dt, dt, [&](int e, Index i) {
-        return 0.5 * (uf_[e][i] + uf_[e][lv.face_row(i)[2 * e + 1]]);
-      });
-      flux[d][hi] = f * uf_[d][hi] * (open ? (*open)[d][hi] : 1.0);
-    });
-    restrict_faces<D>(tree_, flux);
-    std::span<double> uc = tree_.values(u_[c]);
-    // Distributed: owned groups only; the ghosts' new values come by the exchange below.
-    for_each_owned_leaf_level<D>(tree_, [&](Index cell, int l, double h) {
-      const Index* row = tree_.level(l).face_row(cell);
-      double div = 0.0;
-      for (int d = 0; d < D; ++d) div += flux[d][row[2 * d + 1]] - flux[d][cell];
-      if (!embedded_) {
-        uc[cell] -= dt * div / h;
-        return;
-      }
-      const double fluid = volume[static_cast<std::size_t>(cell)];
-      if (fluid > 0.0) uc[cell] -= dt * div / (h * std::max(fluid, kSmallCell));
-    });
-  }
-  // Distributed: the ghosts' new values from their owners (a component's flux reads no
-  // other component's cells, so all D go together after the last).
+  // flux[c][d]: of u_c through the faces along d.
+  std::array<FaceField<D>*, D> flux{&scratch_faces_};
+  for (int c = 1; c < D; ++c) flux[c] = &fluxes_[c - 1];
+  for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
+    const double un = dt * uf_[d][hi] / h;
+    std::array<double, D> f;
+    bcg_face<D>(lv, d, lo, hi, h, un, 0, D - 1, u, sl, g, 0.5 * dt, dt, [&](int e, Index i) {
+      return 0.5 * (uf_[e][i] + uf_[e][lv.face_row(i)[2 * e + 1]]);
+    }, f);
+    for (int c = 0; c < D; ++c) (*flux[c])[d][hi] = f[c] * uf_[d][hi] * (open ? (*open)[d][hi] : 1.0);
+  });
+  for (int c = 0; c < D; ++c) restrict_faces<D>(tree_, *flux[c]);
   std::array<std::span<double>, D> advected;
   for (int c = 0; c < D; ++c) advected[c] = tree_.values(u_[c]);
+  // Distributed: owned groups only; the ghosts' new values come by the exchange below.
+  for_each_owned_leaf_level<D>(tree_, [&](Index cell, int l, double h) {
+    const Index* row = tree_.level(l).face_row(cell);
+    const double fluid = embedded_ ? volume[static_cast<std::size_t>(cell)] : 1.0;
+    for (int c = 0; c < D; ++c) {
+      double div = 0.0;
+      for (int d = 0; d < D; ++d) div += (*flux[c])[d][row[2 * d + 1]] - (*flux[c])[d][cell];
+      if (!embedded_) {
+        advected[c][cell] -= dt * div / h;
+      } else if (fluid > 0.0) {
+        advected[c][cell] -= dt * div / (h * std::max(fluid, kSmallCell));
+      }
+    }
+  });
+  // Distributed: the ghosts' new values from their owners.
   tree_.update_ghosts(advected);
 }
 
