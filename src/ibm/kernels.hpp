@@ -62,6 +62,24 @@ struct CosineKernel {
     const double a = std::min(std::abs(t), 2.0);
     return 0.5 + std::copysign(0.25 * (a + (2.0 / std::numbers::pi) * std::sin(0.5 * std::numbers::pi * a)), t);
   }
+  // Optional batched form of DivergenceFree<CosineKernel>'s five weights (stencil.hpp's
+  // face_stencil): psi(s_k) = C(a_(k+1)) - C(a_k) at a_k = k - 2 - r, k = 0..5, r in [0, 1).
+  // C is 0 at a_0 and 1 at a_5; inside, C(a) = 1/2 + a/4 + sin(pi a / 2) / (2 pi), and with
+  // q = pi r / 2 the sines at a_1..a_4 are -cos q, -sin q, cos q, sin q: one sine and one
+  // cosine instead of ten sines.
+  static void smoothed_stencil_weights(double r, double* w) {
+    const double q = 0.5 * std::numbers::pi * r;
+    const double sq = std::sin(q), cq = std::cos(q), k = 0.5 / std::numbers::pi;
+    const double c1 = 0.5 + 0.25 * (-1.0 - r) - k * cq;
+    const double c2 = 0.5 + 0.25 * -r - k * sq;
+    const double c3 = 0.5 + 0.25 * (1.0 - r) + k * cq;
+    const double c4 = 0.5 + 0.25 * (2.0 - r) + k * sq;
+    w[0] = c1;
+    w[1] = c2 - c1;
+    w[2] = c3 - c2;
+    w[3] = c4 - c3;
+    w[4] = 1.0 - c4;
+  }
 };
 
 struct HatKernel {

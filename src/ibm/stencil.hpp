@@ -125,10 +125,16 @@ template <Kernel K>
     const double i0 = std::floor(u + 0.5);
     b.n[face_axis] = W + 1;
     b.first[face_axis] = smoothed_face_first(i0, W);
+    double* w = b.w[face_axis].data();
+    if constexpr (requires(double* v) { Base::smoothed_stencil_weights(0.0, v); }) {
+      Base::smoothed_stencil_weights(u + 0.5 - i0, w);
+    } else {
+      for (int k = 0; k <= W; ++k) w[k] = K::weight((i0 - W / 2 + k) - u);
+    }
     double sum = 0.0;
-    for (int k = 0; k <= W; ++k) sum += b.w[face_axis][k] = K::weight((i0 - W / 2 + k) - u);
+    for (int k = 0; k <= W; ++k) sum += w[k];
     CAPSFLOW_ASSERT(sum > 0.0 && std::isfinite(sum), "ibm: the kernel's weights around a node do not sum to a positive value");
-    for (int k = 0; k <= W; ++k) b.w[face_axis][k] /= sum;
+    for (int k = 0; k <= W; ++k) w[k] /= sum;
   } else {
     const auto st = node_stencil<K>(o, h, x, face_axis);
     for (int d = 0; d < 3; ++d) set_axis(b, d, st[d]);

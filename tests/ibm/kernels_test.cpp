@@ -2,6 +2,7 @@
 // moments kernels.hpp states, over a sweep of node offsets r in [0, 1).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "ibm/kernels.hpp"
@@ -90,6 +91,21 @@ TEST(Kernels, CosineBatchedWeightsMatchTheFormula) {
     double w[4];
     CosineKernel::stencil_weights(r, w);
     for (int k = 0; k < 4; ++k) EXPECT_NEAR(w[k], CosineKernel::weight(k - 1 - r), 2e-16) << r;
+  }
+}
+
+TEST(Kernels, SmoothedCosineBatchedWeightsMatchTheFormula) {
+  // The five faces i0 - 2 .. i0 + 2 around u = i0 - 1/2 + r (stencil.hpp's face_stencil).
+  for (int i = 0; i <= 1000; ++i) {
+    const double r = std::min(i / 1000.0, 1.0 - 1e-12);
+    double w[5];
+    CosineKernel::smoothed_stencil_weights(r, w);
+    double sum = 0.0;
+    for (int k = 0; k < 5; ++k) {
+      EXPECT_NEAR(w[k], DivergenceFree<CosineKernel>::weight(k - 2 - (r - 0.5)), 4e-16) << r << " " << k;
+      sum += w[k];
+    }
+    EXPECT_NEAR(sum, 1.0, 4e-16) << r;
   }
 }
 
