@@ -55,8 +55,8 @@ void slopes(const tree::Tree<D>& t, const std::array<std::span<const double>, D>
 }
 
 // The BCG face values (see above) of the components first..last of u on the face along d
-// between lo and hi, into value[first..last]; `vt(e, i)` is the transverse velocity of cell
-// i. The components share the upwind cell and the transverse velocities, which is why they
+// between lo and hi, into value[first..last]; `vt(e, i, row)` is the transverse velocity of
+// cell i, whose face row is `row`. The components share the upwind cell and the transverse velocities, which is why they
 // are computed together (each component's arithmetic is its own, in the same order).
 template <int D, class Transverse>
 void bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, double un, int first, int last,
@@ -76,7 +76,7 @@ void bcg_face(const tree::Level<D>& lv, int d, Index lo, Index hi, double h, dou
   const Index* row = lv.face_row(i);
   for (int e = 0; e < D; ++e) {
     if (e == d) continue;
-    const double w = vt(e, i);
+    const double w = vt(e, i, row);
     const Index n = w < 0.0 ? row[2 * e + 1] : row[2 * e];
     for (int k = first; k <= last; ++k) {
       const double diff = w < 0.0 ? u[k][n] - u[k][i] : u[k][i] - u[k][n];
@@ -124,7 +124,7 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
     const double un = dt * 0.5 * (u[d][lo] + u[d][hi]) / h;
     std::array<double, D> v;
-    bcg_face<D>(lv, d, lo, hi, h, un, d, d, u, sl, g, 0.0, dt, [&](int e, Index i) { return u[e][i]; }, v);
+    bcg_face<D>(lv, d, lo, hi, h, un, d, d, u, sl, g, 0.0, dt, [&](int e, Index i, const Index*) { return u[e][i]; }, v);
     // The source is the face mean of g, as Basilisk's (g[] + g[-1]) dt / 4.
     uf_[d][hi] = v[d] + 0.25 * dt * (g[d][lo] + g[d][hi]);
   });
@@ -147,8 +147,8 @@ void NavierStokes<D>::prediction_and_advection(double dt, StepStats& stats) {
   for_each_face<D>(tree_, [&](int d, Index lo, Index hi, double h, const tree::Level<D>& lv) {
     const double un = dt * uf_[d][hi] / h;
     std::array<double, D> f;
-    bcg_face<D>(lv, d, lo, hi, h, un, 0, D - 1, u, sl, g, 0.5 * dt, dt, [&](int e, Index i) {
-      return 0.5 * (uf_[e][i] + uf_[e][lv.face_row(i)[2 * e + 1]]);
+    bcg_face<D>(lv, d, lo, hi, h, un, 0, D - 1, u, sl, g, 0.5 * dt, dt, [&](int e, Index i, const Index* row) {
+      return 0.5 * (uf_[e][i] + uf_[e][row[2 * e + 1]]);
     }, f);
     for (int c = 0; c < D; ++c) (*flux[c])[d][hi] = f[c] * uf_[d][hi] * (open ? (*open)[d][hi] : 1.0);
   });
